@@ -1,0 +1,47 @@
+# sgpipe — two commands do all set-up on a fresh machine: `make demo` and `make test`.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+SGPIPE := $(VENV)/bin/sgpipe
+STAMP  := $(VENV)/.sgpipe-installed
+OUT    ?= out
+
+.PHONY: setup opencl demo test bench figures samples doctor clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	touch $(STAMP)
+
+setup: $(STAMP) opencl
+
+opencl: $(STAMP)
+	@bash tools/ensure_opencl.sh $(PY)
+
+doctor: setup
+	$(SGPIPE) doctor
+
+## the sample pipeline, end to end, on data_samples/
+demo: setup
+	$(SGPIPE) run configs/demo.yaml --out $(OUT)/demo
+	@echo "demo outputs: $(abspath $(OUT)/demo)"
+
+## the test suite (what CI runs)
+test: setup
+	$(PY) -m pytest -q -n 2 --dist loadfile
+
+## speed and memory targets, printed as ratios against baselines measured in the same run
+bench: setup
+	$(PY) -m benchmarks
+
+## paper 000's experiment: docs/RESULTS.md and contact sheets
+figures: setup
+	$(PY) -m sgpipe.experiments.figures --out $(OUT)/figures
+
+## regenerate data_samples/ (deterministic)
+samples: $(STAMP)
+	$(PY) tools/make_data_samples.py --out data_samples
+
+clean:
+	rm -rf $(OUT) .pytest_cache

@@ -1,0 +1,3 @@
+"""sgpipe: spherical-Gaussian precomputation, rendering and verification pipeline."""
+
+__version__ = "0.1.0"

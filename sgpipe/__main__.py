@@ -1,0 +1,3 @@
+from sgpipe.cli import main
+
+main()

@@ -1,0 +1,30 @@
+"""The root of a config file: global settings plus one optional section per stage."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from sgpipe.config.schema import doc
+from sgpipe.config.sections.envmap import EnvmapSection
+from sgpipe.config.sections.fit import FitSection
+from sgpipe.config.sections.render import RenderSection
+from sgpipe.config.sections.scene import SceneSection
+from sgpipe.config.sections.visibility import VisibilitySection
+
+
+@dataclass
+class Config:
+    """A whole pipeline config. Sections that are absent (null) are not run."""
+
+    name: str = doc("Name of this pipeline run (used in reports and the default --out).",
+                    "sgpipe")
+    seed: int = doc("Seed for every random choice; same seed + config = same bytes.", 0, ge=0)
+    workers: int = doc("Worker processes for chunked stages (0 = one per core).", 0, ge=0)
+    scene: SceneSection | None = doc("Geometry shared by visibility and render.", None)
+    fit: FitSection | None = doc("Materials to fit into lobe representations.", None)
+    envmap: EnvmapSection | None = doc("Environment-map prefiltering and light fits.", None)
+    visibility: VisibilitySection | None = doc("Per-vertex visibility, SSDF and PCA.", None)
+    render: RenderSection | None = doc("Images to render and compare.", None)
+    source: Path | None = field(default=None, repr=False, compare=False,
+                                metadata={"doc": "(internal) the config file", "internal": True})

@@ -1,0 +1,2 @@
+"""SG / vMF / SH math core (no sgpipe imports)."""
+from .sg import *  # noqa

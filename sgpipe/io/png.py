@@ -1,0 +1,43 @@
+"""PNG previews. Tone mapping (documented in the README): exposure scale, then Reinhard
+x/(1+x) per channel is NOT used — previews use a plain clamp after exposure so that
+values <= 1 keep their meaning, followed by the sRGB transfer curve, 8 bits."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from sgpipe.io.atomic import atomic_path
+
+
+def tonemap_srgb(image: np.ndarray, *, exposure: float = 0.0) -> np.ndarray:
+    """Linear radiance -> 8-bit sRGB: scale by 2**exposure, clamp to [0, 1], sRGB OETF."""
+    x = np.clip(np.nan_to_num(np.asarray(image, np.float64)) * (2.0 ** exposure), 0.0, 1.0)
+    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+    return np.round(srgb * 255.0).astype(np.uint8)
+
+
+def write_png(path: str | os.PathLike, image: np.ndarray, *, exposure: float = 0.0,
+              already_8bit: bool = False) -> Path:
+    """Write a preview PNG atomically. Float input is tone mapped with `tonemap_srgb`."""
+    import OpenImageIO as oiio
+    path = Path(path)
+    img = np.asarray(image)
+    if not already_8bit:
+        img = tonemap_srgb(img, exposure=exposure)
+    if img.ndim == 2:
+        img = img[:, :, None]
+    if img.shape[2] == 2 or img.shape[2] > 4:
+        img = img[:, :, :3] if img.shape[2] > 4 else np.concatenate([img, img[:, :, :1]], 2)
+    h, w, c = img.shape
+    spec = oiio.ImageSpec(w, h, c, oiio.UINT8)
+    spec.attribute("Software", "sgpipe")
+    with atomic_path(path) as tmp:
+        out = oiio.ImageOutput.create(str(tmp))
+        if out is None or not out.open(str(tmp), spec):
+            raise OSError(f"{path}: cannot write PNG: {oiio.geterror()}")
+        out.write_image(np.ascontiguousarray(img.astype(np.uint8)))
+        out.close()
+    return path

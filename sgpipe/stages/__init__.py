@@ -1,0 +1,1 @@
+"""Stages: read config + input artifacts, call algorithm packages, write artifacts."""
