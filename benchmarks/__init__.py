@@ -1,0 +1,1 @@
+"""Speed and memory targets, printed as ratios against baselines measured in the same run."""
