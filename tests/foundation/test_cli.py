@@ -1,0 +1,112 @@
+"""Bad input through the real CLI: one line naming file and key, exit 2, nothing written."""
+
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from sgpipe.io import write_exr
+
+
+def sgpipe(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "sgpipe", *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=300)
+
+
+def assert_bad_input(res, *needles):
+    assert res.returncode == 2, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("sgpipe: error:")]
+    assert len(lines) == 1, res.stderr
+    assert "Traceback" not in res.stderr
+    for n in needles:
+        assert n in lines[0], lines[0]
+
+
+def write(tmp_path, text, name="c.yaml"):
+    p = tmp_path / name
+    p.write_text(textwrap.dedent(text))
+    return p
+
+
+def test_help_on_every_command():
+    for cmd in ([], ["fit"], ["precompute"], ["render"], ["run"], ["compare"], ["doctor"],
+                ["config-doc"]):
+        res = sgpipe(*cmd, "--help")
+        assert res.returncode == 0 and "Usage:" in res.stdout, cmd
+
+
+@pytest.mark.parametrize("text,needle", [
+    ("name: [x\n", "malformed YAML"),
+    ("name: x\nunknown_key: 3\n", "unknown_key: unknown key"),
+    ("seed: many\n", "seed: expected an integer"),
+])
+def test_config_errors(tmp_path, text, needle):
+    p = write(tmp_path, text)
+    out = tmp_path / "out"
+    res = sgpipe("run", p, "--out", out)
+    assert_bad_input(res, str(p), needle)
+    assert not out.exists()
+
+
+def test_missing_config_file(tmp_path):
+    assert_bad_input(sgpipe("fit", tmp_path / "none.yaml"), "none.yaml", "not found")
+
+
+def test_bad_override(tmp_path):
+    p = write(tmp_path, "name: x\n")
+    assert_bad_input(sgpipe("run", p, "--set", "seed=abc", "--out", tmp_path / "o"), "seed")
+
+
+def _env_config(tmp_path, env_name):
+    return write(tmp_path, f"envmap:\n  environment: {env_name}\n")
+
+
+def test_nonfinite_environment_exr(tmp_path):
+    img = np.ones((8, 16, 3), np.float32)
+    img[3, 4, 0] = np.nan
+    write_exr(tmp_path / "env.exr", img)
+    out = tmp_path / "out"
+    res = sgpipe("precompute", _env_config(tmp_path, "env.exr"), "--out", out)
+    assert_bad_input(res, "env.exr", "NaN/Inf", "envmap.environment")
+    assert not (out / "envmap").exists()
+
+
+def test_wrong_channel_count_environment(tmp_path):
+    write_exr(tmp_path / "env.exr", np.ones((8, 16, 2), np.float32))
+    res = sgpipe("precompute", _env_config(tmp_path, "env.exr"), "--out", tmp_path / "out")
+    assert_bad_input(res, "env.exr", "channels", "envmap.environment")
+
+
+def test_unreadable_environment(tmp_path):
+    (tmp_path / "env.exr").write_bytes(b"garbage")
+    res = sgpipe("precompute", _env_config(tmp_path, "env.exr"), "--out", tmp_path / "out")
+    assert_bad_input(res, "env.exr", "unreadable")
+
+
+def test_missing_environment_file(tmp_path):
+    res = sgpipe("precompute", _env_config(tmp_path, "nope.exr"), "--out", tmp_path / "out")
+    assert_bad_input(res, "envmap.environment", "not found")
+
+
+def test_unwritable_output(tmp_path):
+    write_exr(tmp_path / "env.exr", np.ones((8, 16, 3), np.float32))
+    blocker = tmp_path / "blocker"
+    blocker.write_text("a file, not a folder")
+    res = sgpipe("precompute", _env_config(tmp_path, "env.exr"), "--out", blocker / "out")
+    assert_bad_input(res, "blocker", "--out", "not writable")
+
+
+def test_empty_mesh(tmp_path):
+    (tmp_path / "empty.obj").write_text("# no geometry\n")
+    p = write(tmp_path, """
+        scene:
+          objects:
+            - {name: thing, mesh: empty.obj}
+        visibility: {trace_resolution: 16, resolution: 8, pca_terms: 2}
+    """)
+    out = tmp_path / "out"
+    res = sgpipe("precompute", p, "--out", out)
+    assert_bad_input(res, "empty.obj")
+    assert not (out / "visibility").exists()

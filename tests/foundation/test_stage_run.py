@@ -1,0 +1,98 @@
+"""StageRun: manifest, skip when unchanged, --force, nothing half-written, determinism."""
+
+import json
+
+import numpy as np
+import pytest
+
+from sgpipe.config import load_config
+from sgpipe.errors import BadInput
+from sgpipe.stages.base import StageRun
+
+
+@pytest.fixture
+def cfg(tmp_path):
+    p = tmp_path / "c.yaml"
+    p.write_text("name: t\nseed: 1\n")
+    return load_config(p)
+
+
+def _run(cfg, out, params, inputs=(), force=False, fail=False):
+    with StageRun(cfg, out, "demo", params=params, inputs=list(inputs), force=force) as run:
+        if run.skipped:
+            return run
+        run.write_exr("img.exr", np.full((4, 5, 3), params["v"], np.float32))
+        run.write_npz("a.npz", {"x": np.arange(3) * params["v"]})
+        run.report["mean"] = float(params["v"])
+        run.timings["work_s"] = 0.1
+        if fail:
+            raise RuntimeError("stage crashed")
+    return run
+
+
+def test_manifest_and_outputs(cfg, tmp_path):
+    out = tmp_path / "out"
+    _run(cfg, out, {"v": 2.0})
+    d = out / "demo"
+    names = sorted(p.name for p in d.iterdir())
+    assert names == ["a.npz", "config.resolved.yaml", "img.exr", "img.png", "manifest.json",
+                     "timings.json"]
+    man = json.loads((d / "manifest.json").read_text())
+    assert man["report"] == {"mean": 2.0} and man["params"] == {"v": 2.0}
+    assert set(man["outputs"]) == {"a.npz", "config.resolved.yaml", "img.exr", "img.png"}
+    assert not any(p.name.startswith(".") for p in out.iterdir())
+
+
+def test_skip_when_unchanged_and_rerun_on_change(cfg, tmp_path, capsys):
+    out = tmp_path / "out"
+    inp = tmp_path / "in.txt"
+    inp.write_text("a")
+    assert not _run(cfg, out, {"v": 1.0}, [inp]).skipped
+    assert _run(cfg, out, {"v": 1.0}, [inp]).skipped
+    assert "up to date" in capsys.readouterr().err
+    assert not _run(cfg, out, {"v": 1.0}, [inp], force=True).skipped
+    assert not _run(cfg, out, {"v": 3.0}, [inp]).skipped          # parameters changed
+    inp.write_text("b")
+    assert not _run(cfg, out, {"v": 3.0}, [inp]).skipped          # input content changed
+    (out / "demo" / "a.npz").write_bytes(b"tampered")
+    assert not _run(cfg, out, {"v": 3.0}, [inp]).skipped          # output damaged
+
+
+def test_failure_leaves_previous_outputs_untouched(cfg, tmp_path):
+    out = tmp_path / "out"
+    _run(cfg, out, {"v": 1.0})
+    before = {p.name: p.read_bytes() for p in (out / "demo").iterdir()}
+    with pytest.raises(RuntimeError):
+        _run(cfg, out, {"v": 5.0}, fail=True)
+    after = {p.name: p.read_bytes() for p in (out / "demo").iterdir()}
+    assert after == before
+    assert sorted(p.name for p in out.iterdir()) == ["demo"]
+
+
+def test_failure_on_first_run_writes_nothing(cfg, tmp_path):
+    out = tmp_path / "out"
+    with pytest.raises(RuntimeError):
+        _run(cfg, out, {"v": 5.0}, fail=True)
+    assert list(out.iterdir()) == []
+
+
+def test_same_inputs_give_byte_identical_artifacts(cfg, tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    _run(cfg, a, {"v": 1.5})
+    _run(cfg, b, {"v": 1.5})
+    for p in (a / "demo").iterdir():
+        if p.name != "timings.json":
+            assert p.read_bytes() == (b / "demo" / p.name).read_bytes(), p.name
+
+
+def test_unwritable_output_is_bad_input(cfg, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    with pytest.raises(BadInput, match="not writable") as e:
+        _run(cfg, blocker / "out", {"v": 1.0})
+    assert e.value.key == "--out"
+
+
+def test_missing_input_is_bad_input(cfg, tmp_path):
+    with pytest.raises(BadInput, match="input file not found"):
+        _run(cfg, tmp_path / "out", {"v": 1.0}, [tmp_path / "gone.exr"])
