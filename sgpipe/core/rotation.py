@@ -1,15 +1,87 @@
-"""Stub (being filled in)."""
+"""Rotations: matrices and unit quaternions (x, y, z, w), scalar LAST (scipy / float4 layout).
+
+Used for normal / tangent maps as quaternion maps q(x) (Wang09 §7) and SG rotation (eq 7).
+"""
+from __future__ import annotations
+
 import numpy as np
 
-def rotation_between(a, b):
-    raise NotImplementedError
+
+def _unit(v):
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _any_perpendicular(a):
+    """A unit vector ⟂ a (cross with the axis of a's smallest |component|)."""
+    idx = np.argmin(np.abs(a), axis=-1)
+    e = np.eye(3)[idx]
+    return _unit(np.cross(a, e))
+
+
+def axis_angle_matrix(axis, angle):
+    """Rodrigues: rotation by `angle` (rad, right-handed) about unit `axis` → (..., 3, 3)."""
+    k = _unit(axis)
+    angle = np.asarray(angle, float)[..., None, None]
+    K = np.zeros(k.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2] = -k[..., 2], k[..., 1]
+    K[..., 1, 0], K[..., 1, 2] = k[..., 2], -k[..., 0]
+    K[..., 2, 0], K[..., 2, 1] = -k[..., 1], k[..., 0]
+    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * (K @ K)
 
 
 def quat_from_to(a, b):
-    raise NotImplementedError
+    """Shortest-arc unit quaternion (x, y, z, w) rotating unit a onto unit b (π about a ⟂ axis if a = −b)."""
+    a = _unit(a)
+    b = _unit(b)
+    a, b = np.broadcast_arrays(a, b)
+    c = np.sum(a * b, axis=-1)
+    v = np.cross(a, b)
+    q = np.concatenate([v, (1.0 + c)[..., None]], axis=-1)
+    anti = (1.0 + c) < 1e-12
+    if np.any(anti):
+        perp = _any_perpendicular(a)
+        q = np.where(anti[..., None], np.concatenate([perp, np.zeros(c.shape + (1,))], -1), q)
+    return _unit(q)
 
 
 def quat_rotate(q, v):
-    raise NotImplementedError
+    """Rotate v by unit quaternion q = (x, y, z, w): v' = v + 2w(u×v) + 2u×(u×v)."""
+    q = np.asarray(q, float)
+    v = np.asarray(v, float)
+    u, w = q[..., :3], q[..., 3:4]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
 
 
+def quat_multiply(q1, q2):
+    """Hamilton product q1 ⊗ q2 (apply q2 first), scalar-last layout."""
+    q1 = np.asarray(q1, float)
+    q2 = np.asarray(q2, float)
+    u1, w1 = q1[..., :3], q1[..., 3:4]
+    u2, w2 = q2[..., :3], q2[..., 3:4]
+    u = w1 * u2 + w2 * u1 + np.cross(u1, u2)
+    w = w1 * w2 - np.sum(u1 * u2, axis=-1, keepdims=True)
+    return np.concatenate([u, w], axis=-1)
+
+
+def quat_to_matrix(q):
+    """Unit quaternion (x, y, z, w) → rotation matrix (..., 3, 3)."""
+    q = _unit(q)
+    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    R = np.empty(q.shape[:-1] + (3, 3))
+    R[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    R[..., 0, 1] = 2 * (x * y - z * w)
+    R[..., 0, 2] = 2 * (x * z + y * w)
+    R[..., 1, 0] = 2 * (x * y + z * w)
+    R[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    R[..., 1, 2] = 2 * (y * z - x * w)
+    R[..., 2, 0] = 2 * (x * z - y * w)
+    R[..., 2, 1] = 2 * (y * z + x * w)
+    R[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    return R
+
+
+def rotation_between(a, b):
+    """Rotation matrix (..., 3, 3) of the shortest arc taking unit a to unit b."""
+    return quat_to_matrix(quat_from_to(a, b))
