@@ -56,15 +56,28 @@ class Context:
 def _type_name(tp: Any) -> str:
     if tp is InputPath:
         return "path"
+    if tp is OutputName:
+        return "file name"
     origin = get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        inner = [_type_name(a) for a in get_args(tp) if a is not type(None)]
+        none = type(None) in get_args(tp)
+        return " or ".join(inner) + (" or null" if none else "")
     if origin is Literal:
         return "one of " + ", ".join(repr(a) for a in get_args(tp))
-    if origin in (list, tuple):
-        return "list"
+    if origin is list:
+        return f"list of {_type_name(get_args(tp)[0])}"
+    if origin is tuple:
+        args = get_args(tp)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return f"list of {_type_name(args[0])}"
+        return "[" + ", ".join(_type_name(a) for a in args) + "]"
     if origin is dict:
         return "mapping"
     if is_dataclass(tp):
         return "mapping"
+    if tp is Any:
+        return "any"
     return getattr(tp, "__name__", str(tp))
 
 
