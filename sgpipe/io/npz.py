@@ -28,7 +28,9 @@ def write_npz(path: str | os.PathLike, arrays: dict[str, np.ndarray], *,
                 if arr.dtype == object:
                     raise TypeError(f"write_npz: {name} has object dtype")
                 buf = io.BytesIO()
-                np.lib.format.write_array(buf, np.ascontiguousarray(arr), allow_pickle=False)
+                # not ascontiguousarray: it turns 0-d scalars into shape (1,)
+                np.lib.format.write_array(buf, np.array(arr, order="C", copy=True),
+                                          allow_pickle=False)
                 info = zipfile.ZipInfo(name + ".npy", date_time=_EPOCH)
                 info.compress_type = method
                 info.external_attr = 0o644 << 16
