@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from sgpipe.config.schema import doc
+from sgpipe.config.schema import InputPath, doc
 
 
 @dataclass
@@ -21,9 +21,75 @@ class CameraSpec:
 
 
 @dataclass
+class LightSpec:
+    """A local light (Wang09 eq 32–33), rendered as one SG lobe whose integral is the light's
+    irradiance; the Monte Carlo reference treats it as the delta light of the same strength."""
+
+    type: Literal["point", "directional"] = doc("Light type.", "point")
+    position: tuple[float, float, float] = doc("Position (point lights).", (2.0, 4.0, 2.0))
+    direction: tuple[float, float, float] = doc(
+        "Direction from the scene TOWARDS the light (directional lights).", (0.0, 1.0, 0.0))
+    intensity: tuple[float, float, float] = doc(
+        "RGB strength: radiant intensity I in W/sr (point: irradiance I/d² at distance d) or "
+        "irradiance E in W/m² on a surface facing the light (directional).", (10.0, 10.0, 10.0))
+    radius: float = doc("Size: sphere radius in world units (point) or tan of the angular "
+                        "radius (directional); sets the SG sharpness f_a⁻¹(2πr²/d²) and the "
+                        "shadow softness of the SG methods.", 0.05, ge=0)
+
+    def validate(self):
+        if any(c < 0 for c in self.intensity):
+            raise ValueError("intensity: must be >= 0")
+        if self.type == "directional" and sum(c * c for c in self.direction) < 1e-20:
+            raise ValueError("direction: must be a non-zero vector")
+
+
+@dataclass
+class MaterialTextureSpec:
+    """Spatially varying parameters (SVBRDF): textures multiplying a material's kd / ks."""
+
+    material: str = doc("Name of a material in `fit.materials`.")
+    kd_map: InputPath | None = doc("RGB texture multiplying kd (linear, OBJ uv: v = 0 is the "
+                                   "bottom row, repeat addressing).", None)
+    ks_map: InputPath | None = doc("RGB texture multiplying ks (same addressing).", None)
+
+
+@dataclass
 class RenderSection:
-    """What to render."""
+    """What to render and how to compare it."""
 
     camera: CameraSpec = doc("Camera.", default_factory=CameraSpec)
     methods: list[Literal["sg", "gmm", "fis", "reference"]] = doc(
-        "Rendering methods to run.", default_factory=lambda: ["sg"])
+        "Rendering methods to run (sg: Wang09 SG + SSDF shadows; gmm: paper 000 per-view vMF "
+        "mixtures with MIP lookups; fis: Colbert–Křivánek filtered importance sampling; "
+        "reference: Monte Carlo ground truth).", default_factory=lambda: ["sg"])
+    lights: list[LightSpec] = doc("Point / directional lights added to the environment.",
+                                  default_factory=list)
+    environment_exposure: float = doc("Environment radiance scale in stops (× 2^value) for "
+                                      "every method.", 0.0, ge=-30, le=30)
+    preview_exposure: float = doc("Exposure (stops) of the PNG previews (clamp + sRGB).", 0.0,
+                                  ge=-30, le=30)
+    background: bool = doc("Show the environment where primary rays miss (else black).", True)
+    spp: int = doc("Samples per pixel of the `reference` method.", 256, ge=1)
+    fis_samples: int = doc("Samples per pixel N of `fis` (paper 000 uses about 40).", 40, ge=1,
+                           le=4096)
+    gmm_interpolate: bool = doc("gmm: interpolate lobes between fitted views when the fit is "
+                                "coherent (else nearest view).", True)
+    baseline_shadows: bool = doc("gmm/fis: apply the SSDF visibility as sg does (the papers' "
+                                 "baselines are unshadowed; false reproduces that).", True)
+    fh: Literal["table", "sigmoid"] = doc(
+        "SG × SSDF visibility integral f_h (Wang09 eq 30): `table` = the exact integral "
+        "tabulated (default), `sigmoid` = the paper's appendix fit (eq 47–49).", "table")
+    compare_to: str | None = doc("Method whose image is the ground truth for `sgpipe compare`"
+                                 " of every other method (usually `reference`); null: none.",
+                                 None)
+    material_textures: list[MaterialTextureSpec] = doc("SVBRDF textures per material.",
+                                                       default_factory=list)
+    timing_repeats: int = doc("Warm shading launches per method for the timing (minimum is "
+                              "reported).", 3, ge=1, le=100)
+
+    def validate(self):
+        if self.compare_to is not None and self.compare_to not in self.methods:
+            raise ValueError(f"compare_to: {self.compare_to!r} is not one of methods "
+                             f"{self.methods}")
+        if len(set(self.methods)) != len(self.methods):
+            raise ValueError("methods: listed twice")

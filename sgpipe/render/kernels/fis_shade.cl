@@ -1,0 +1,195 @@
+/* Method `fis`: filtered importance sampling (Colbert & Křivánek 2007, paper 000's baseline).
+ * The specular lobe takes N samples from a fixed Hammersley set: 3N/4 drawn from the NDF's SG
+ * lobes read as vMFs (h-space, i = ψ(h), pdf_i = pdf_h / (4|o·h|)), N/4 cosine-weighted
+ * (defensive, for the NDF's tails), combined by the multi-sample balance heuristic:
+ *   L_s = Σ_s M_o(i_s) D(h_s) L_lod(i_s) (n·i_s) V(i_s) / (N_v p_v(i_s) + N_c p_c(i_s)),
+ * with the exact BRDF factors (D from the tabulated exact NDF) and L_lod the box MIP chain at
+ * lod = max(½ log2(Ω_s/Ω_p) + 1, 0), Ω_s = 1/(N_v p_v + N_c p_c) (C&K's bias +1). The diffuse
+ * term uses the irradiance form as C&K do (here the SG light fit with SSDF visibility, Wang09
+ * eq 39). Local lights: exact ρ (n·l) E V(l). V: the SSDF sign
+ * (visible iff θ_d > 0) when shadows are on. Defines: NV, FH_*, MAX_NDF_LOBES. */
+#include "sg.h"
+#include "ssdf.h"
+#include "cubemap.h"
+#include "microfacet.h"
+#include "shading.h"
+
+inline float radical_inverse2(uint i) {
+    i = (i << 16) | (i >> 16);
+    i = ((i & 0x55555555u) << 1) | ((i & 0xAAAAAAAAu) >> 1);
+    i = ((i & 0x33333333u) << 2) | ((i & 0xCCCCCCCCu) >> 2);
+    i = ((i & 0x0F0F0F0Fu) << 4) | ((i & 0xF0F0F0F0u) >> 4);
+    i = ((i & 0x00FF00FFu) << 8) | ((i & 0xFF00FF00u) >> 8);
+    return (float)i * 2.3283064365386963e-10f;
+}
+
+inline uint hash_u32(uint x) {
+    x ^= x >> 16; x *= 0x7feb352du; x ^= x >> 15; x *= 0x846ca68bu; x ^= x >> 16;
+    return x;
+}
+
+/* Orthonormal basis around unit a (Duff et al. 2017). */
+inline void basis_around(float3 a, float3 *u, float3 *v) {
+    float s = a.z >= 0.0f ? 1.0f : -1.0f;
+    float p = -1.0f / (s + a.z);
+    float q = a.x * a.y * p;
+    *u = (float3)(1.0f + s * a.x * a.x * p, s * q, -s * a.x);
+    *v = (float3)(q, s + a.y * a.y * p, -a.y);
+}
+
+/* vMF sample around `a` with concentration κ (Jakob 2012's stable inversion). */
+inline float3 vmf_sample(float3 a, float kappa, float u1, float u2) {
+    float w = 1.0f + log(u1 + (1.0f - u1) * exp(-2.0f * kappa)) / kappa;
+    w = clamp(w, -1.0f, 1.0f);
+    float r = sqrt(fmax(0.0f, 1.0f - w * w));
+    float3 bu, bv;
+    basis_around(a, &bu, &bv);
+    float ph = 2.0f * 3.14159265358979f * u2;
+    return normalize(r * cos(ph) * bu + r * sin(ph) * bv + w * a);
+}
+
+inline float vmf_pdf(float3 a, float kappa, float3 x) {
+    return vmf_to_sg_mu(kappa) * exp(kappa * (dot(a, x) - 1.0f));
+}
+
+/* Exact NDF D(h) from the table: rows t = √(1 − cos θ_h) ∈ [0, 1], columns φ ∈ [0, 2π). */
+inline float ndf_table(__global const float *tables, int4 info, float3 h) {
+    if (h.z <= 0.0f) return 0.0f;
+    int nt = info.y, np = info.z;
+    float t = sqrt(clamp(1.0f - h.z, 0.0f, 1.0f)) * (float)(nt - 1);
+    int t0 = min((int)floor(t), nt - 2);
+    float ft = t - (float)t0;
+    __global const float *tab = tables + info.x;
+    if (np <= 1) return mix(tab[t0], tab[t0 + 1], ft);
+    float ph = atan2(h.y, h.x);
+    if (ph < 0.0f) ph += 2.0f * 3.14159265358979f;
+    float pc = ph / (2.0f * 3.14159265358979f) * (float)np;
+    int p0 = (int)floor(pc) % np, p1 = (p0 + 1) % np;
+    float fp = pc - floor(pc);
+    float a = mix(tab[t0 * np + p0], tab[t0 * np + p1], fp);
+    float b = mix(tab[(t0 + 1) * np + p0], tab[(t0 + 1) * np + p1], fp);
+    return mix(a, b, ft);
+}
+
+__kernel void fis_shade(
+    const int n,
+    __global const float4 *gnrm, __global const float4 *gtan, __global const float4 *gview,
+    __global const float4 *gpos, __global const float2 *guv,
+    __global const int *gobj, __global const int *gtri, __global const float2 *gbary,
+    __global const int8 *objs, __global const float4 *objf,
+    __global const int *vfaces, __global const float *coeffs,
+    __global const float *ssdf_data,
+    __global const float *mats, __global const float4 *lobes, __global const float *tables,
+    __global const float4 *texels, __global const int4 *texinfo,
+    __global const float4 *gmm, __global const int4 *ndf_info,
+    __global const float4 *mip, __global const int *mip_off, __global const int *mip_res,
+    const int mip_n,
+    __global const float4 *env_sg, const int n_env_sg, const float env_scale,
+    const float coverage,
+    __global const float4 *lights, const int n_lights,
+    const int nsamp, const uint seed, const int flags,
+    __global float4 *out)
+{
+    int gid = get_global_id(0);
+    if (gid >= n) return;
+    float3 N = gnrm[gid].xyz, T = gtan[gid].xyz;
+    float3 B = cross(N, T);
+    float3 x = gpos[gid].xyz;
+    int8 ob = objs[gobj[gid]];
+    int mi = ob.s0;
+    __global const float *m = mats + mi * MAT_STRIDE;
+    float3 kd = mat3(m, MAT_KD), ks = mat3(m, MAT_KS);
+    float2 uv = guv[gid];
+    if ((int)m[MAT_KDTEX] >= 0) kd *= tex_bilinear(texels, texinfo[(int)m[MAT_KDTEX]], uv).xyz;
+    if ((int)m[MAT_KSTEX] >= 0) ks *= tex_bilinear(texels, texinfo[(int)m[MAT_KSTEX]], uv).xyz;
+    Vis vis;
+    vis_init(&vis, ob, objf[gobj[gid]].x, gtri[gid], gbary[gid], vfaces, coeffs, ssdf_data,
+             !(flags & 4));
+    float4 q = (float4)(0.0f, 0.0f, 0.0f, 1.0f);
+    if (ob.s7 >= 0) q = quat_from_z(normal_from_map(tex_bilinear(texels, texinfo[ob.s7], uv)));
+    float4 qi = quat_conj(q);
+    float3 op = lift(normalize(quat_rotate(qi, lift(to_local(gview[gid].xyz, T, B, N), 0.01f))), 0.01f);
+
+    int4 ndf = ndf_info[mi];
+    int nl = ndf.w ? min((int)m[MAT_NLOBES], MAX_NDF_LOBES) : 0;
+    int lobe0 = (int)m[MAT_LOBE0];
+    float3 col = (float3)(0.0f);
+    float wsum = 0.0f;
+    float lw[MAX_NDF_LOBES];
+    for (int j = 0; j < nl; ++j) {
+        float4 L0 = lobes[2 * (lobe0 + j)], L1 = lobes[2 * (lobe0 + j) + 1];
+        lw[j] = L1.x * sg_integral_unit(L0.w);
+        wsum += lw[j];
+    }
+    /* The specular lobe's N samples: 3/4 from the NDF lobes (vMF), 1/4 cosine-weighted as a
+     * defensive mixture for the NDF's tails (multi-sample balance heuristic). The diffuse term
+     * uses the irradiance form as C&K do (here: the SG light fit with SSDF visibility, eq 39). */
+    int ns = 0, nd = 0;
+    if (nl > 0 && wsum > 0.0f) {
+        nd = nsamp >= 4 ? nsamp / 4 : 0;
+        ns = nsamp - nd;
+    }
+    if (!(flags & 1))
+        col += diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, &vis);
+    float rot1 = 0.0f, rot2 = 0.0f;      /* seed ≠ 0: per-pixel Cranley–Patterson rotation */
+    if (seed != 0u) {
+        uint hsh = hash_u32((uint)gid * 0x9E3779B9u ^ seed);
+        rot1 = (float)(hsh & 0xFFFFu) / 65536.0f;
+        rot2 = (float)(hash_u32(hsh) & 0xFFFFu) / 65536.0f;
+    }
+    int N0 = mip_res[0];
+    for (int s = 0; s < ns + nd && !(flags & 2); ++s) {
+        int spec = s < ns;
+        int si = spec ? s : s - ns, cnt = spec ? ns : nd;
+        float u1 = ((float)si + 0.5f) / (float)cnt + rot1, u2 = radical_inverse2((uint)si) + rot2;
+        u1 -= floor(u1); u2 -= floor(u2);
+        float3 ip;   /* in the BRDF (normal-mapped) frame */
+        if (spec) {
+            /* choose a lobe by its mass (u1 reused, stratified within the chosen lobe) */
+            float acc = 0.0f, pick = u1 * wsum;
+            int j = 0;
+            for (; j < nl - 1; ++j) { if (pick < acc + lw[j]) break; acc += lw[j]; }
+            float uu = clamp((pick - acc) / fmax(lw[j], 1e-30f), 0.0f, 0.99999f);
+            float4 L0 = lobes[2 * (lobe0 + j)];
+            float3 h = vmf_sample(normalize(L0.xyz), L0.w, uu, u2);
+            ip = 2.0f * dot(op, h) * h - op;
+        } else {
+            float r = sqrt(u1), ph = 2.0f * 3.14159265358979f * u2;
+            ip = (float3)(r * cos(ph), r * sin(ph), sqrt(fmax(0.0f, 1.0f - u1)));
+        }
+        if (ip.z <= 0.0f) continue;
+        ip = normalize(ip);
+        float3 h = normalize(op + ip);
+        float oh = dot(op, h);
+        float ph_h = 0.0f;
+        for (int j = 0; j < nl; ++j) {
+            float4 L0 = lobes[2 * (lobe0 + j)];
+            ph_h += lw[j] / wsum * vmf_pdf(normalize(L0.xyz), L0.w, h);
+        }
+        float p_s = oh > 0.0f ? ph_h / (4.0f * oh) : 0.0f;
+        float p_d = ip.z * 0.318309886f;
+        float denom = (float)ns * p_s + (float)nd * p_d;
+        if (denom <= 0.0f) continue;
+        float3 ig = quat_rotate(q, ip);
+        if (ig.z <= 0.0f) continue;
+        if (!(flags & 4) && vis_theta(&vis, ig) <= 0.0f) continue;
+        float3 f = mf_M(m, tables, ks, op, ip) * ndf_table(tables, ndf, h);
+        float3 iw = normalize(to_world(ig, T, B, N));
+        float omega_s = 1.0f / denom;   /* = 1/(N p) */
+        float lod = fmax(0.5f * log2(omega_s / cube_texel_solid_angle(iw, N0)) + 1.0f, 0.0f);
+        float3 L = env_scale * cube_mip(mip, mip_off, mip_res, mip_n, iw, lod);
+        col += f * L * ip.z / denom;
+    }
+    for (int l = 0; l < n_lights; ++l) {
+        SG Lw = light_sg(lights[2 * l], lights[2 * l + 1], x);
+        float3 lg = to_local(Lw.p, T, B, N);
+        float3 lp = quat_rotate(qi, lg);
+        if (lp.z <= 0.0f || lg.z <= 0.0f) continue;
+        if (!(flags & 4) && vis_theta(&vis, lg) <= 0.0f) continue;
+        float3 h = normalize(op + lp);
+        float3 f = mf_diffuse(m, kd, op, lp);
+        if (nl > 0) f += mf_M(m, tables, ks, op, lp) * ndf_table(tables, ndf, h);
+        col += f * lp.z * sg_integral(Lw);
+    }
+    out[gid] = (float4)(col, 1.0f);
+}

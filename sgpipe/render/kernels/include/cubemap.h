@@ -1,0 +1,101 @@
+/* Cubemaps in the envmap stage's bordered layout "cube6v_b1" (docs/ARTIFACTS.md, envmap/):
+ * a level of face resolution n is a (6·(n+2)) × (n+2) image; face f (OpenGL order +X, −X, +Y,
+ * −Y, +Z, −Z) occupies rows [f(n+2), (f+1)(n+2)); texel (row i, col j) sits at s = (j − 0.5)/n,
+ * t = (i − 0.5)/n. The 1-texel border already holds the neighbouring/extended values, so a
+ * plain per-face bilinear fetch is seamless. All levels of a chain are packed in one float4
+ * buffer; level l starts at texel off[l].
+ * Also: Γ_L pyramid lookups (Wang09 eq 34–35) and box-MIP lookups (paper 000 eq 6–11). */
+#ifndef SGPIPE_CUBEMAP_H
+#define SGPIPE_CUBEMAP_H
+
+/* OpenGL major-axis selection (ties x > y > z) → face, s, t ∈ [0, 1]. */
+inline int cube_coords(float3 d, float *s, float *t) {
+    float ax = fabs(d.x), ay = fabs(d.y), az = fabs(d.z);
+    float sc, tc, ma;
+    int face;
+    if (ax >= ay && ax >= az) {
+        ma = ax; face = d.x >= 0.0f ? 0 : 1;
+        sc = d.x >= 0.0f ? -d.z : d.z; tc = -d.y;
+    } else if (ay >= az) {
+        ma = ay; face = d.y >= 0.0f ? 2 : 3;
+        sc = d.x; tc = d.y >= 0.0f ? d.z : -d.z;
+    } else {
+        ma = az; face = d.z >= 0.0f ? 4 : 5;
+        sc = d.z >= 0.0f ? d.x : -d.x; tc = -d.y;
+    }
+    *s = 0.5f * (sc / ma + 1.0f);
+    *t = 0.5f * (tc / ma + 1.0f);
+    return face;
+}
+
+/* Bilinear lookup of one bordered level (face resolution n) in direction d. */
+inline float3 cube_bilinear(__global const float4 *data, int off, int n, float3 d) {
+    float s, t;
+    int face = cube_coords(d, &s, &t);
+    int w = n + 2;
+    float u = clamp(s * (float)n + 0.5f, 0.5f, (float)n + 0.5f);
+    float v = clamp(t * (float)n + 0.5f, 0.5f, (float)n + 0.5f);
+    float j0f = floor(u), i0f = floor(v);
+    float fx = u - j0f, fy = v - i0f;
+    int j0 = min((int)j0f, n), i0 = min((int)i0f, n);
+    __global const float4 *row0 = data + off + (face * w + i0) * w + j0;
+    __global const float4 *row1 = row0 + w;
+    float4 c = mix(mix(row0[0], row0[1], fx), mix(row1[0], row1[1], fx), fy);
+    return c.xyz;
+}
+
+/* Box MIP chain at fractional level `lod` (trilinear; clamped to [0, nlev − 1]). */
+inline float3 cube_mip(__global const float4 *data, __global const int *off, __global const int *res,
+                       int nlev, float3 d, float lod) {
+    lod = clamp(lod, 0.0f, (float)(nlev - 1));
+    int l0 = (int)floor(lod);
+    int l1 = min(l0 + 1, nlev - 1);
+    float f = lod - (float)l0;
+    float3 a = cube_bilinear(data, off[l0], res[l0], d);
+    if (f <= 0.0f || l1 == l0) return a;
+    return mix(a, cube_bilinear(data, off[l1], res[l1], d), f);
+}
+
+/* Paper 000 eq 9 with the cube distortion D(d) = 4 max(|d_x|, |d_y|, |d_z|)³ (unit d):
+ * solid angle of a finest-level texel (face resolution N) around d. */
+inline float cube_texel_solid_angle(float3 d, int N) {
+    float ma = fmax(fabs(d.x), fmax(fabs(d.y), fabs(d.z)));
+    return 4.0f * ma * ma * ma / ((float)N * (float)N);
+}
+
+/* Paper 000 eq 8 + 10: MIP level of a lobe of sharpness κ holding the fraction a of its mass. */
+inline float cube_lobe_lod(float3 d, float kappa, float a, int N) {
+    float omega_s = -SG_TWO_PI * log(1.0f - a) / fmax(kappa, 1e-6f);
+    return 0.5f * log2(omega_s / cube_texel_solid_angle(d, N));
+}
+
+/* A(λ) = coth λ − 1/λ (mean resultant length; λ/3 for small λ). */
+inline float mean_resultant(float lam) {
+    if (lam < 1e-3f) return lam / 3.0f;
+    float e = exp(-2.0f * lam);
+    return (1.0f + e) / (1.0f - e) - 1.0f / lam;
+}
+
+/* Γ_L(p, λ) = S(λ) V_λ(p) (Wang09 eq 35) from the normalised pyramid: levels hold V at
+ * lam[l] = lam0 / ratio^l; linear in ln λ between levels, clamped above lam0, and below the
+ * broadest level V = mean + A(λ)/A(λ_{L−1}) (V_{L−1} − mean) (envmap contract). */
+inline float3 gamma_lookup(__global const float4 *data, __global const int *off,
+                           __global const int *res, __global const float *lam, int nlev,
+                           float log_ratio, float3 mean, float3 p, float lambda) {
+    float3 v;
+    if (lambda >= lam[0]) {
+        v = cube_bilinear(data, off[0], res[0], p);
+    } else if (lambda >= lam[nlev - 1]) {
+        float x = log(lam[0] / lambda) / log_ratio;
+        int l = min((int)floor(x), nlev - 2);
+        l = max(l, 0);
+        float w = clamp(x - (float)l, 0.0f, 1.0f);
+        v = mix(cube_bilinear(data, off[l], res[l], p), cube_bilinear(data, off[l + 1], res[l + 1], p), w);
+    } else {
+        float w = mean_resultant(lambda) / mean_resultant(lam[nlev - 1]);
+        v = mean + w * (cube_bilinear(data, off[nlev - 1], res[nlev - 1], p) - mean);
+    }
+    return v * sg_integral_unit(lambda);
+}
+
+#endif

@@ -1,0 +1,130 @@
+/* The fit stage's one BRDF form (docs/ARTIFACTS.md fit/, Wang09 eq 8–14):
+ *   ρ(o, i) = f_d(o, i) + M_o(i) D(h),  M_o(i) = ks g_scale F(o·h) G2(o, i) / (π (n·i)(n·o)),
+ * everything in the local frame (z = n, x = t, y = b). Materials are float records of
+ * MAT_STRIDE values (layout: MAT_* below, written by sgpipe/render/resources.py). */
+#ifndef SGPIPE_MICROFACET_H
+#define SGPIPE_MICROFACET_H
+
+#define MAT_STRIDE 32
+#define MAT_KD 0          /* 3 */
+#define MAT_KS 3          /* 3 */
+#define MAT_GSCALE 6
+#define MAT_DIFFUSE 7     /* 0 lambert, 1 ashikhmin_shirley, 2 none */
+#define MAT_FRESNEL 8     /* 0 none, 1 schlick, 2 conductor, 3 dielectric */
+#define MAT_F0 9          /* 3 */
+#define MAT_ETA 12        /* 3 */
+#define MAT_K 15          /* 3 */
+#define MAT_SHADOW 18     /* 0..7, see g2() */
+#define MAT_AU 19
+#define MAT_AV 20
+#define MAT_NLOBES 21     /* NDF SG lobes (ndf_sg.npz) */
+#define MAT_LOBE0 22      /* first lobe in the lobe table */
+#define MAT_STAB 23       /* offset of the 90-entry shadow table (kind 7) in the table buffer */
+#define MAT_GMM 24        /* index of the view-GMM table (−1: none) */
+#define MAT_KDTEX 25      /* texture index of an albedo (kd) texture, −1: none */
+#define MAT_KSTEX 26      /* texture index of a ks texture, −1: none */
+
+#define MF_INV_PI 0.318309886183791f
+#define MF_SQRT_PI 1.77245385090552f
+
+inline float3 mat3(__global const float *m, int k) { return (float3)(m[k], m[k + 1], m[k + 2]); }
+
+inline float3 fresnel_conductor(float c, float3 eta, float3 k) {
+    float cos2 = c * c, sin2 = 1.0f - cos2;
+    float3 eta2 = eta * eta, k2 = k * k;
+    float3 t0 = eta2 - k2 - sin2;
+    float3 a2b2 = sqrt(t0 * t0 + 4.0f * eta2 * k2);
+    float3 t1 = a2b2 + cos2;
+    float3 a = sqrt(fmax(0.5f * (a2b2 + t0), 0.0f));
+    float3 t2 = 2.0f * c * a;
+    float3 rs = (t1 - t2) / (t1 + t2);
+    float3 t3 = cos2 * a2b2 + sin2 * sin2;
+    float3 t4 = t2 * sin2;
+    float3 rp = rs * (t3 - t4) / (t3 + t4);
+    return 0.5f * (rp + rs);
+}
+
+inline float fresnel_dielectric1(float c, float eta) {
+    float g2 = eta * eta + c * c - 1.0f;
+    if (g2 < 0.0f) return 1.0f;
+    float g = sqrt(g2);
+    float a = (g - c) / (g + c);
+    float b = (c * (g + c) - 1.0f) / (c * (g - c) + 1.0f);
+    return 0.5f * a * a * (1.0f + b * b);
+}
+
+inline float3 mf_fresnel(__global const float *m, float c) {
+    int kind = (int)m[MAT_FRESNEL];
+    c = clamp(c, 0.0f, 1.0f);
+    if (kind == 1) { float3 f0 = mat3(m, MAT_F0); float x = 1.0f - c; float x2 = x * x; return f0 + (1.0f - f0) * (x2 * x2 * x); }
+    if (kind == 2) return fresnel_conductor(fmax(c, 1e-4f), mat3(m, MAT_ETA), mat3(m, MAT_K));
+    if (kind == 3) { float3 e = mat3(m, MAT_ETA); return (float3)(fresnel_dielectric1(c, e.x), fresnel_dielectric1(c, e.y), fresnel_dielectric1(c, e.z)); }
+    return (float3)(1.0f);
+}
+
+/* a_v² tan²θ_v for the Smith kinds (anisotropic roughness along x = t, y = b). */
+inline float smith_a2tan2(float3 v, float au, float av) {
+    float z2 = v.z * v.z;
+    float s2 = fmax(1.0f - z2, 0.0f);
+    float xy2 = v.x * v.x + v.y * v.y;
+    float c2 = xy2 > 0.0f ? v.x * v.x / xy2 : 1.0f;
+    float a2 = au * au * c2 + av * av * (1.0f - c2);
+    return a2 * s2 / fmax(z2, 1e-12f);
+}
+
+inline float g1_ggx(float3 v, float au, float av) { return 2.0f / (1.0f + sqrt(1.0f + smith_a2tan2(v, au, av))); }
+
+inline float g1_beckmann(float3 v, float au, float av) {
+    float t = smith_a2tan2(v, au, av);
+    if (t <= 0.0f) return 1.0f;
+    float a = 1.0f / sqrt(t);
+    if (a >= 6.0f) return 1.0f;
+    float lam = 0.5f * (erf(a) - 1.0f) + exp(-a * a) / (2.0f * a * MF_SQRT_PI);
+    return 1.0f / (1.0f + lam);
+}
+
+inline float shadow_table(__global const float *tab, float cos_theta) {
+    float th = acos(clamp(cos_theta, 0.0f, 1.0f)) * (180.0f / 3.14159265358979f) - 0.5f;
+    th = clamp(th, 0.0f, 89.0f);
+    int k = min((int)floor(th), 88);
+    float f = th - (float)k;
+    return mix(tab[k], tab[k + 1], f);
+}
+
+inline float mf_g2(__global const float *m, __global const float *tables, float3 o, float3 i, float3 h) {
+    int kind = (int)m[MAT_SHADOW];
+    float ni = i.z, no = o.z;
+    if (kind == 1) return ni * no;
+    if (kind == 2) { float nh = h.z, oh = fmax(dot(o, h), 1e-6f); return fmin(1.0f, fmin(2.0f * nh * no / oh, 2.0f * nh * ni / oh)); }
+    if (kind == 3) return g1_ggx(o, m[MAT_AU], m[MAT_AV]) * g1_ggx(i, m[MAT_AU], m[MAT_AV]);
+    if (kind == 4) return g1_beckmann(o, m[MAT_AU], m[MAT_AV]) * g1_beckmann(i, m[MAT_AU], m[MAT_AV]);
+    if (kind == 5) return sqrt(ni * no);
+    if (kind == 6) return ni * no / (fmax(dot(o, h), 1e-6f) * fmax(ni, no));
+    if (kind == 7) { __global const float *t = tables + (int)m[MAT_STAB]; return shadow_table(t, ni) * shadow_table(t, no); }
+    return 1.0f;
+}
+
+/* M_o(i) (Wang09 eq 9/11/13) in the local frame, RGB; 0 unless n·i > 0 and n·o > 0.
+ * `ks` is the (possibly textured) specular colour. */
+inline float3 mf_M(__global const float *m, __global const float *tables, float3 ks, float3 o, float3 i) {
+    if (i.z <= 0.0f || o.z <= 0.0f) return (float3)(0.0f);
+    float3 h = normalize(o + i);
+    float3 F = mf_fresnel(m, dot(o, h));
+    float G = mf_g2(m, tables, o, i, h);
+    return ks * (m[MAT_GSCALE] * G * MF_INV_PI / (i.z * o.z)) * F;
+}
+
+/* f_d(o, i) with a (possibly textured) diffuse colour kd; 0 below the horizon. */
+inline float3 mf_diffuse(__global const float *m, float3 kd, float3 o, float3 i) {
+    int kind = (int)m[MAT_DIFFUSE];
+    if (kind == 2 || i.z <= 0.0f || o.z <= 0.0f) return (float3)(0.0f);
+    if (kind == 1) {
+        float3 f0 = mat3(m, MAT_F0);
+        float a = 1.0f - 0.5f * i.z, b = 1.0f - 0.5f * o.z;
+        float a5 = a * a * a * a * a, b5 = b * b * b * b * b;
+        return kd * (28.0f / (23.0f * 3.14159265358979f)) * (1.0f - f0) * (1.0f - a5) * (1.0f - b5);
+    }
+    return kd * MF_INV_PI;
+}
+
+#endif

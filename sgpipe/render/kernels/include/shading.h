@@ -1,0 +1,140 @@
+/* Per-pixel shading inputs shared by the sg, gmm and fis kernels: G-buffer records, object
+ * records, textures (kd / ks / normal maps), SSDF coefficient interpolation, local lights. */
+#ifndef SGPIPE_SHADING_H
+#define SGPIPE_SHADING_H
+
+/* Object record, int8: material, first face in vfaces, first vertex row in coeffs, has_ssdf,
+ * basis offset (floats), mean offset (floats), SSDF resolution, normal-map texture (−1 none).
+ * Float record, float4: max_distance (radians), unused ×3. */
+#define OBJ_MAT 0
+#define OBJ_FACE0 1
+#define OBJ_VERT0 2
+#define OBJ_HASSSDF 3
+#define OBJ_BASIS 4
+#define OBJ_MEAN 5
+#define OBJ_RES 6
+#define OBJ_NMAP 7
+
+/* Texture record int4: texel offset into the float4 texel buffer, width, height, unused.
+ * UV convention (OBJ): v = 0 is the BOTTOM row; addressing wraps (repeat). */
+inline float4 tex_bilinear(__global const float4 *texels, int4 info, float2 uv) {
+    int w = info.y, h = info.z;
+    float x = (uv.x - floor(uv.x)) * (float)w - 0.5f;
+    float vv = 1.0f - (uv.y - floor(uv.y));
+    float y = vv * (float)h - 0.5f;
+    float x0f = floor(x), y0f = floor(y);
+    float fx = x - x0f, fy = y - y0f;
+    int x0 = ((int)x0f % w + w) % w, y0 = ((int)y0f % h + h) % h;
+    int x1 = (x0 + 1) % w, y1 = (y0 + 1) % h;
+    __global const float4 *t = texels + info.x;
+    float4 a = mix(t[y0 * w + x0], t[y0 * w + x1], fx);
+    float4 b = mix(t[y1 * w + x0], t[y1 * w + x1], fx);
+    return mix(a, b, fy);
+}
+
+/* Shortest-arc quaternion (x, y, z, w) taking +z to the unit vector n (n.z > −1). */
+inline float4 quat_from_z(float3 n) {
+    float4 q = (float4)(-n.y, n.x, 0.0f, 1.0f + n.z);
+    float l = length(q);
+    return l > 1e-8f ? q / l : (float4)(1.0f, 0.0f, 0.0f, 0.0f);
+}
+inline float4 quat_conj(float4 q) { return (float4)(-q.x, -q.y, -q.z, q.w); }
+
+/* Tangent-space normal (texture RGB n·0.5 + 0.5, z up, green = +v) → unit local normal. */
+inline float3 normal_from_map(float4 c) {
+    float3 n = 2.0f * c.xyz - 1.0f;
+    n.z = fmax(n.z, 1e-3f);
+    return normalize(n);
+}
+
+/* Local light record (float4 ×2): (position or direction-to-light, type 0 point / 1 directional),
+ * (RGB intensity, radius). Wang09 eq 32–33 with energy-matched amplitude: the lobe integrates to
+ * the light's irradiance at normal incidence (point: I/d², directional: E). */
+inline SG light_sg(float4 a, float4 b, float3 x) {
+    float3 dir;
+    float area, irr_scale;
+    if (a.w < 0.5f) {
+        float3 d = a.xyz - x;
+        float d2 = fmax(dot(d, d), 1e-12f);
+        dir = d * rsqrt(d2);
+        area = SG_TWO_PI * b.w * b.w / d2;
+        irr_scale = 1.0f / d2;
+    } else {
+        dir = normalize(a.xyz);
+        area = SG_TWO_PI * b.w * b.w;
+        irr_scale = 1.0f;
+    }
+    /* float32 keeps e^{d − λ1 − λ2} accurate to ~1e-3 up to λ ≈ 2e4 (0.4° lobes). */
+    float lam = area > 0.0f ? fmin(sg_lambda_from_area(area), 2e4f) : 2e4f;
+    return sg_make(dir, lam, b.xyz * (irr_scale / sg_integral_unit(lam)));
+}
+
+/* Lift a local direction to at least elevation asin(zmin) (keeps M_o and f_d finite and
+ * continuous for lobe axes at or below the horizon of the BRDF frame). */
+inline float3 lift(float3 d, float zmin) {
+    if (d.z >= zmin) return d;
+    float2 xy = d.xy;
+    float l = length(xy);
+    xy = l > 1e-8f ? xy / l : (float2)(1.0f, 0.0f);
+    float r = sqrt(1.0f - zmin * zmin);
+    return (float3)(xy * r, zmin);
+}
+
+/* Per-pixel SSDF state: interpolated PCA coefficients of the object's SSDF mesh (eq 24). */
+typedef struct {
+    int has;
+    int res;
+    float maxd;
+    __global const float *basis;
+    __global const float *mean;
+    float4 w[NV > 0 ? NV / 4 : 1];
+} Vis;
+
+inline void vis_init(Vis *v, int8 ob, float maxd, int tri, float2 bc,
+                     __global const int *vfaces, __global const float *coeffs,
+                     __global const float *ssdf_data, int enabled) {
+    v->has = 0; v->res = 1; v->maxd = 1.5707963f;
+    v->basis = ssdf_data; v->mean = ssdf_data;
+#if NV > 0
+    if (enabled && ob.s3 && tri >= 0) {
+        v->has = 1; v->res = ob.s6; v->maxd = maxd;
+        v->basis = ssdf_data + ob.s4; v->mean = ssdf_data + ob.s5;
+        __global const int *f = vfaces + 3 * (ob.s1 + tri);
+        float w0 = 1.0f - bc.x - bc.y;
+        __global const float4 *c0 = (__global const float4 *)(coeffs + (ob.s2 + f[0]) * NV);
+        __global const float4 *c1 = (__global const float4 *)(coeffs + (ob.s2 + f[1]) * NV);
+        __global const float4 *c2 = (__global const float4 *)(coeffs + (ob.s2 + f[2]) * NV);
+        for (int j = 0; j < NV / 4; ++j) v->w[j] = w0 * c0[j] + bc.x * c1[j] + bc.y * c2[j];
+    }
+#endif
+}
+
+/* θ_d of the SSDF at a direction of the geometric local frame, clamped to ±min(maxd, π/2)
+ * (docs/ARTIFACTS.md visibility/, decoding steps 2–4 and products). */
+inline float vis_theta(const Vis *v, float3 d) {
+#if NV > 0
+    float th = ssdf_theta(v->has, v->basis, v->mean, v->res, v->w, d);
+#else
+    float th = asin(clamp(d.z, -1.0f, 1.0f));
+#endif
+    float lim = fmin(v->maxd, 1.5707963f);
+    return clamp(th, -lim, lim);
+}
+
+/* Wang09 eq 39 with the environment's SG light fit, as one sum: Σ_k f_d · (C* ⊗ L*_k) · V^d.
+ * (gmm and fis use it for the diffuse term, as Colbert & Křivánek use an irradiance map.) */
+inline float3 diffuse_env_sg(__global const float *m, float3 kd, float3 op, float4 q, float4 qi,
+                             float3 T, float3 B, float3 N, __global const float4 *env_sg,
+                             int n_env_sg, float env_scale, const Vis *vis) {
+    SG cosg = sg_clamped_cosine(quat_rotate(q, (float3)(0.0f, 0.0f, 1.0f)));
+    float3 acc = (float3)(0.0f);
+    for (int k = 0; k < n_env_sg; ++k) {
+        float4 a = env_sg[2 * k], b = env_sg[2 * k + 1];
+        SG g = sg_product(cosg, sg_make(to_local(a.xyz, T, B, N), a.w, b.xyz * env_scale));
+        float3 fd = mf_diffuse(m, kd, op, lift(quat_rotate(qi, g.p), 0.05f));
+        acc += fd * sg_dot_visibility(g, vis_theta(vis, g.p));
+    }
+    return acc;
+}
+
+#endif

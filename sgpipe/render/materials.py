@@ -1,0 +1,198 @@
+"""Material artifacts (`<out>/fit/<material>/`, docs/ARTIFACTS.md fit/) → the float records,
+SG lobe table and side tables the kernels read (layout: kernels/include/microfacet.h).
+
+One `Material` per `fit.materials` entry: the microfacet factor M_o (microfacet.npz), the NDF
+SG lobes D* (ndf_sg.npz, Wang09 eq 12/16), optionally the per-view vMF mixtures (view_gmm.npz,
+paper 000 eq 3) and a tabulated exact NDF D(h) for filtered importance sampling.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sgpipe.errors import BadInput
+from sgpipe.io import read_npz
+from sgpipe.render.envdata import scalar
+
+MAT_STRIDE = 32
+# Slots (kernels/include/microfacet.h); 27..31 describe the view-GMM / NDF tables.
+KD, KS, GSCALE, DIFFUSE, FRESNEL, F0, ETA, K, SHADOW, AU, AV = 0, 3, 6, 7, 8, 9, 12, 15, 18, 19, 20
+NLOBES, LOBE0, STAB, GMM, KDTEX, KSTEX = 21, 22, 23, 24, 25, 26
+GMM_NT, GMM_NP, GMM_K, GMM_TMAX, GMM_FLAGS = 27, 28, 29, 30, 31
+# The exact-NDF table (fis) is located through a separate int4 per material (offset, nt, np, 0).
+
+#: Exact-NDF table resolution: rows t = sqrt(1 − cos θ_h) ∈ [0, 1], columns φ_h ∈ [0, 2π).
+NDF_TABLE_T = 1024
+NDF_TABLE_P_ANISO = 64
+
+
+@dataclass
+class Material:
+    """Everything one material contributes to the kernels."""
+
+    name: str
+    kd: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    ks: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    g_scale: float = 1.0
+    diffuse: int = 0
+    fresnel: int = 0
+    f0: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    eta: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    k: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    shadowing: int = 0
+    alpha_u: float = 0.0
+    alpha_v: float = 0.0
+    shadow_table: np.ndarray = field(default_factory=lambda: np.ones(90))
+    # NDF SG lobes: axis (L,3) local, sharpness (L,), amplitude (L,)
+    lobe_axis: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    lobe_lambda: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    lobe_mu: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    gmm: dict | None = None          # view_gmm.npz arrays
+    ndf_table: np.ndarray | None = None  # (nt, np) exact D on the (t, φ) grid (fis)
+    kd_texture: int = -1
+    ks_texture: int = -1
+
+    @classmethod
+    def lambert(cls, name: str, kd) -> "Material":
+        return cls(name, kd=np.broadcast_to(np.asarray(kd, float), (3,)).copy())
+
+    @classmethod
+    def load(cls, folder: str | Path, name: str, *, need_gmm: bool = False) -> "Material":
+        """Read `<out>/fit/<name>/` (microfacet.npz, ndf_sg.npz, view_gmm.npz if needed)."""
+        folder = Path(folder)
+        if not folder.is_dir():
+            raise BadInput(f"fitted material {name!r} not found (run `sgpipe fit` first)",
+                           file=folder, key="fit.materials")
+        mf = read_npz(folder / "microfacet.npz", key=f"fit.materials.{name}",
+                      required=("kd", "ks", "g_scale", "diffuse", "fresnel", "shadowing"))
+        get = lambda k, d: np.asarray(mf[k], float) if k in mf else np.asarray(d, float)
+        m = cls(name, kd=get("kd", 0).reshape(3), ks=get("ks", 0).reshape(3),
+                g_scale=scalar(mf["g_scale"]), diffuse=int(scalar(mf["diffuse"])),
+                fresnel=int(scalar(mf["fresnel"])), f0=get("f0", [0, 0, 0]).reshape(3),
+                eta=get("eta", [0, 0, 0]).reshape(3), k=get("k", [0, 0, 0]).reshape(3),
+                shadowing=int(scalar(mf["shadowing"])), alpha_u=scalar(get("alpha_u", 0)),
+                alpha_v=scalar(get("alpha_v", 0)),
+                shadow_table=get("shadow_table", np.ones(90)).reshape(-1))
+        ndf = read_npz(folder / "ndf_sg.npz", key=f"fit.materials.{name}",
+                       required=("axis", "sharpness", "amplitude"))
+        m.lobe_axis = np.asarray(ndf["axis"], float).reshape(-1, 3)
+        m.lobe_lambda = np.asarray(ndf["sharpness"], float).reshape(-1)
+        m.lobe_mu = np.asarray(ndf["amplitude"], float).reshape(-1)
+        if need_gmm:
+            m.gmm = read_npz(folder / "view_gmm.npz", key=f"fit.materials.{name}",
+                             required=("view_theta", "view_phi", "alpha", "kappa", "mu_theta",
+                                       "mu_phi", "includes_diffuse", "coherent"))
+        return m
+
+    @classmethod
+    def from_brdf(cls, name: str, brdf, lobes=None) -> "Material":
+        """From a `sgpipe.brdf` BRDF: its microfacet parameters and either the given NDF lobes
+        [(axis, λ, μ), ...] or the single analytic SG lobe of its NDF (Wang09 eq 12)."""
+        p = brdf.microfacet_params()
+        m = cls(name, kd=np.asarray(p["kd"], float), ks=np.asarray(p["ks"], float),
+                g_scale=float(p["g_scale"]), diffuse=int(p["diffuse"]), fresnel=int(p["fresnel"]),
+                f0=np.asarray(p["f0"], float), eta=np.asarray(p["eta"], float),
+                k=np.asarray(p["k"], float), shadowing=int(p["shadowing"]),
+                alpha_u=float(p["alpha_u"]), alpha_v=float(p["alpha_v"]),
+                shadow_table=np.asarray(p["shadow_table"], float))
+        if lobes is None and getattr(brdf, "ndf_model", None) is not None:
+            sg = brdf.ndf_model.sg_analytic()
+            lobes = [((0.0, 0.0, 1.0), sg[0], sg[1])] if sg is not None else []
+        lobes = list(lobes or [])
+        m.lobe_axis = np.array([a for a, _, _ in lobes], float).reshape(-1, 3)
+        m.lobe_lambda = np.array([lam for _, lam, _ in lobes], float)
+        m.lobe_mu = np.array([mu for _, _, mu in lobes], float)
+        return m
+
+    def tabulate_ndf(self, brdf) -> None:
+        """Exact D(h) of a `sgpipe.brdf` BRDF on the (t = √(1 − cos θ_h), φ_h) grid (fis)."""
+        nt = NDF_TABLE_T
+        npp = 1 if getattr(brdf, "isotropic", True) else NDF_TABLE_P_ANISO
+        t = np.linspace(0.0, 1.0, nt)
+        phi = np.arange(npp) * (2 * np.pi / npp)
+        cos_t = 1.0 - t[:, None] ** 2
+        sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t ** 2))
+        h = np.stack(np.broadcast_arrays(sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t), -1)
+        self.ndf_table = np.asarray(brdf.ndf(h), np.float32).reshape(nt, npp)
+
+
+@dataclass
+class MaterialTable:
+    """Packed materials: records (M, MAT_STRIDE), lobes (L, 2, 4), tables (float), gmm (float4)."""
+
+    names: list[str]
+    records: np.ndarray
+    lobes: np.ndarray
+    tables: np.ndarray
+    gmm: np.ndarray
+    ndf_info: np.ndarray     # (M, 4) int32: offset into tables, nt, np, has
+    max_lobes: int
+    max_gmm_lobes: int
+
+    def index(self, name: str) -> int:
+        return self.names.index(name)
+
+
+def _gmm_block(g: dict):
+    """view_gmm arrays → (header values, float4 rows): per (view j, lobe k) two float4:
+    (alpha RGB, kappa), (mu_theta, mu_phi, 0, 0)."""
+    th = np.asarray(g["view_theta"], float)
+    ph = np.asarray(g["view_phi"], float)
+    alpha = np.asarray(g["alpha"], float)
+    J, Kl = alpha.shape[:2]
+    rows = np.zeros((J, Kl, 2, 4), np.float32)
+    rows[..., 0, :3] = alpha
+    rows[..., 0, 3] = np.asarray(g["kappa"], float)
+    rows[..., 1, 0] = np.asarray(g["mu_theta"], float)
+    rows[..., 1, 1] = np.asarray(g["mu_phi"], float)
+    flags = int(scalar(g["coherent"])) + 2 * int(scalar(g["includes_diffuse"]))
+    return (len(th), len(ph), Kl, float(th[-1]) if len(th) else 0.0, flags), rows.reshape(-1, 4)
+
+
+def pack_materials(materials: list[Material]) -> MaterialTable:
+    """Pack materials in list order (index = material id used by object records)."""
+    recs = np.zeros((max(len(materials), 1), MAT_STRIDE), np.float32)
+    lobes, tables, gmm = [], [], []
+    ndf_info = np.zeros((max(len(materials), 1), 4), np.int32)
+    n_lobe = n_tab = n_gmm = 0
+    max_lobes = max_k = 1
+    for i, m in enumerate(materials):
+        r = recs[i]
+        r[KD:KD + 3], r[KS:KS + 3] = m.kd, m.ks
+        r[GSCALE], r[DIFFUSE], r[FRESNEL], r[SHADOW] = m.g_scale, m.diffuse, m.fresnel, m.shadowing
+        r[F0:F0 + 3], r[ETA:ETA + 3], r[K:K + 3] = m.f0, m.eta, m.k
+        r[AU], r[AV] = m.alpha_u, m.alpha_v
+        nl = len(m.lobe_lambda) if np.any(np.asarray(m.ks) > 0) else 0
+        r[NLOBES], r[LOBE0] = nl, n_lobe
+        for a, lam, mu in zip(m.lobe_axis[:nl], m.lobe_lambda[:nl], m.lobe_mu[:nl]):
+            lobes.append([[*(np.asarray(a) / np.linalg.norm(a)), lam], [mu, 0, 0, 0]])
+        n_lobe += nl
+        max_lobes = max(max_lobes, nl)
+        r[STAB] = n_tab
+        st = np.ones(90, np.float32)
+        st[:len(m.shadow_table)] = np.asarray(m.shadow_table, np.float32)[:90]
+        tables.append(st)
+        n_tab += 90
+        if m.ndf_table is not None:
+            ndf_info[i] = (n_tab, *m.ndf_table.shape, 1)
+            tables.append(m.ndf_table.reshape(-1).astype(np.float32))
+            n_tab += m.ndf_table.size
+        r[GMM] = -1
+        if m.gmm is not None:
+            (nt, npp, kl, tmax, flags), rows = _gmm_block(m.gmm)
+            r[GMM], r[GMM_NT], r[GMM_NP], r[GMM_K] = n_gmm, nt, npp, kl
+            r[GMM_TMAX], r[GMM_FLAGS] = tmax, flags
+            gmm.append(rows)
+            n_gmm += len(rows)
+            max_k = max(max_k, kl)
+        r[KDTEX], r[KSTEX] = m.kd_texture, m.ks_texture
+    return MaterialTable(
+        names=[m.name for m in materials], records=recs,
+        lobes=np.asarray(lobes, np.float32).reshape(-1, 2, 4) if lobes else np.zeros((1, 2, 4),
+                                                                                  np.float32),
+        tables=np.concatenate(tables) if tables else np.ones(90, np.float32),
+        gmm=np.concatenate(gmm) if gmm else np.zeros((1, 4), np.float32),
+        ndf_info=ndf_info, max_lobes=max_lobes, max_gmm_lobes=max_k)

@@ -1,0 +1,107 @@
+"""Scene objects of the config (`scene.objects`) → what the renderer traces and shades.
+
+Meshes: the visibility stage's `visibility/<object>/geometry.npz` when present (so triangle
+ids and vertex order match the per-vertex SSDF coefficients), else `sgpipe.io.mesh` (the same
+shared loader). Analytic spheres stay analytic for primary visibility; their SSDF data live on
+the visibility stage's icosphere, reached per pixel by a ray from the centre ("proxy" mapping).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from sgpipe.errors import BadInput
+from sgpipe.io import read_npz
+from sgpipe.render.envdata import scalar
+from sgpipe.render.gbuffer import TraceObject, Tracer
+
+
+def object_rotation(rotate_deg) -> np.ndarray:
+    """Rotation about X, then Y, then Z (degrees) → 3×3 matrix Rz·Ry·Rx (scene config)."""
+    from sgpipe.io.mesh import object_matrix
+    return object_matrix((0.0, 0.0, 0.0), rotate_deg, 1.0)[:3, :3]
+
+
+def _geometry(vis_dir: Path | None, name: str) -> dict | None:
+    if vis_dir is None:
+        return None
+    p = Path(vis_dir) / name / "geometry.npz"
+    if not p.is_file():
+        return None
+    return read_npz(p, key=f"visibility.{name}", required=("positions", "normals", "faces"))
+
+
+def load_trace_objects(cfg, vis_dir: str | Path | None = None) -> list[TraceObject]:
+    """World-space TraceObjects for `cfg.scene.objects`, in config order."""
+    from sgpipe.io.mesh import load_object
+    if cfg.scene is None:
+        return []
+    sub = getattr(cfg.visibility, "sphere_subdivisions", 4) if cfg.visibility else 4
+    out = []
+    for k, spec in enumerate(cfg.scene.objects):
+        if spec.sphere_radius is not None:
+            out.append(TraceObject.sphere(spec.name, center=spec.translate,
+                                          radius=spec.sphere_radius * spec.scale,
+                                          rotation=object_rotation(spec.rotate_deg)))
+            continue
+        g = _geometry(Path(vis_dir) if vis_dir else None, spec.name)
+        if g is not None:
+            out.append(TraceObject.mesh(spec.name, g["positions"], g["faces"],
+                                        normals=g["normals"], tangents=g.get("tangents"),
+                                        uvs=g.get("uvs")))
+        else:
+            m = load_object(spec, k, sphere_subdivisions=sub)
+            out.append(TraceObject.mesh(spec.name, m.positions, m.faces, normals=m.normals,
+                                        tangents=m.tangents, uvs=m.uvs))
+    return out
+
+
+def load_vis_objects(cfg, vis_dir: str | Path | None):
+    """Per object: (VisObject | None, proxy TraceObject | None) from `visibility/<object>/`."""
+    from sgpipe.render.renderer import VisObject
+    out = []
+    for spec in (cfg.scene.objects if cfg.scene is not None else []):
+        if vis_dir is None:
+            out.append((None, None))
+            continue
+        folder = Path(vis_dir) / spec.name
+        if not (folder / "ssdf_pca.npz").is_file():
+            raise BadInput("visibility data missing for this object (rerun `sgpipe "
+                           "precompute`)", file=folder, key=f"scene.objects.{spec.name}")
+        pca = read_npz(folder / "ssdf_pca.npz", key=f"visibility.{spec.name}",
+                       required=("mean", "basis", "coeffs"))
+        g = _geometry(Path(vis_dir), spec.name)
+        if g is None:
+            raise BadInput("geometry.npz missing", file=folder, key=f"visibility.{spec.name}")
+        vis = VisObject(faces=np.asarray(g["faces"], np.int32),
+                        coeffs=np.asarray(pca["coeffs"], np.float32),
+                        mean=np.asarray(pca["mean"], np.float32),
+                        basis=np.asarray(pca["basis"], np.float32).reshape(
+                            -1, *np.shape(pca["mean"])),
+                        max_distance=scalar(pca.get("max_distance", np.pi / 2)))
+        proxy = None
+        if spec.sphere_radius is not None:
+            proxy = TraceObject.mesh(spec.name, g["positions"], g["faces"])
+        out.append((vis, proxy))
+    return out
+
+
+def ssdf_triangles(gb, objects: list[TraceObject], proxies: list):
+    """Per pixel (SSDF-mesh triangle, barycentrics): the traced triangle on meshes; on
+    analytic spheres the proxy icosphere triangle hit by the ray centre → hit point."""
+    tri = gb.triangle_id.copy()
+    bary = gb.barycentrics.copy()
+    for k, (obj, proxy) in enumerate(zip(objects, proxies)):
+        if proxy is None or obj.kind != "sphere":
+            continue
+        sel = gb.object_id == k
+        if not sel.any():
+            continue
+        c = np.asarray(obj.center, float)
+        d = gb.position[sel].astype(float) - c
+        p = Tracer([proxy]).trace(np.broadcast_to(c, d.shape), d)
+        tri[sel] = np.where(p.hit, p.triangle_id, -1)
+        bary[sel] = p.barycentrics
+    return tri, bary

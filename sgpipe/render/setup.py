@@ -1,0 +1,154 @@
+"""Assemble a `Renderer` and the traced scene from a config and the upstream artifacts on disk
+(`<out>/envmap/`, `<out>/fit/<material>/`, `<out>/visibility/<object>/`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from sgpipe.errors import BadInput
+from sgpipe.io import read_exr
+from sgpipe.render.envdata import EnvData
+from sgpipe.render.gbuffer import TraceObject
+from sgpipe.render.materials import Material, pack_materials
+from sgpipe.render.renderer import Light, ObjectShading, Renderer, Textures
+from sgpipe.render.scene import load_trace_objects, load_vis_objects
+
+
+@dataclass
+class SceneBundle:
+    renderer: Renderer
+    objects: list[TraceObject]
+    proxies: list            # per object: icosphere TraceObject for sphere SSDF lookup, or None
+    env_latlong: np.ndarray | None   # (H, W, 3) linear radiance × exposure (background, reference)
+
+
+def lights_of(rs) -> list[Light]:
+    """Config lights → renderer lights (direction normalised)."""
+    out = []
+    for L in rs.lights:
+        if L.type == "point":
+            out.append(Light("point", tuple(L.position), tuple(L.intensity), L.radius))
+        else:
+            d = np.asarray(L.direction, float)
+            out.append(Light("directional", tuple(d / np.linalg.norm(d)), tuple(L.intensity),
+                             L.radius))
+    return out
+
+
+def reference_lights(rs) -> list[dict]:
+    """Config lights as the Monte Carlo reference reads them (delta lights)."""
+    out = []
+    for L in rs.lights:
+        if L.type == "point":
+            out.append({"type": "point", "position": list(L.position),
+                        "intensity": list(L.intensity)})
+        else:
+            out.append({"type": "directional", "direction": list(L.direction),
+                        "irradiance": list(L.intensity)})
+    return out
+
+
+def _image(path, key) -> np.ndarray:
+    img = read_exr(path, channels=(1, 3, 4), key=key) if str(path).lower().endswith(
+        (".exr", ".hdr")) else _read_ldr(path, key)
+    return img[..., :3] if img.shape[2] >= 3 else np.repeat(img[..., :1], 3, axis=2)
+
+
+def _read_ldr(path, key) -> np.ndarray:
+    """8/16-bit images (PNG) as linear values in [0, 1] (no sRGB decoding: data textures)."""
+    import OpenImageIO as oiio
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        raise BadInput(f"unreadable image ({oiio.geterror().strip()})", file=path, key=key)
+    try:
+        data = inp.read_image(oiio.FLOAT)
+    finally:
+        inp.close()
+    if data is None:
+        raise BadInput("unreadable image", file=path, key=key)
+    img = np.asarray(data, np.float32)
+    return img if img.ndim == 3 else img[..., None]
+
+
+def build_scene(cfg, out_dir: str | Path, methods: list[str]) -> SceneBundle:
+    """Everything the shading methods need, read from `out_dir`'s upstream stage folders."""
+    out_dir = Path(out_dir)
+    rs = cfg.render
+    if cfg.scene is None or not cfg.scene.objects:
+        raise BadInput("the scene has no objects to render", key="scene.objects")
+    scale = float(2.0 ** rs.environment_exposure)
+    env_dir = out_dir / "envmap"
+    if cfg.envmap is None:
+        env = EnvData.constant(0.0)
+        latlong = None
+    else:
+        env = EnvData.load(env_dir)
+        latlong = _image(cfg.envmap.environment, "envmap.environment") * scale
+    vis_dir = out_dir / "visibility" if cfg.visibility is not None else None
+    if vis_dir is not None and not vis_dir.is_dir():
+        raise BadInput("visibility artifacts not found (run `sgpipe precompute` first)",
+                       file=vis_dir, key="visibility")
+    objects = load_trace_objects(cfg, vis_dir)
+    vis = load_vis_objects(cfg, vis_dir)
+    specs = {m.name: m for m in (cfg.fit.materials if cfg.fit is not None else [])}
+    textures = Textures()
+    tex_by_mat = {t.material: t for t in rs.material_textures}
+    for name in tex_by_mat:
+        if name not in specs:
+            raise BadInput(f"material {name!r} is not defined in fit.materials",
+                           key="render.material_textures")
+    names, mats = [], []
+    for k, o in enumerate(cfg.scene.objects):
+        if o.material not in specs:
+            raise BadInput(f"material {o.material!r} is not defined in fit.materials",
+                           file=getattr(cfg, "source", None), key=f"scene.objects.{k}.material")
+        if o.material in names:
+            continue
+        m = Material.load(out_dir / "fit" / o.material, o.material,
+                          need_gmm="gmm" in methods)
+        if "fis" in methods:
+            m.tabulate_ndf(_brdf_of(specs[o.material]))
+        t = tex_by_mat.get(o.material)
+        if t is not None and t.kd_map:
+            m.kd_texture = textures.add(_image(t.kd_map, "render.material_textures.kd_map"))
+        if t is not None and t.ks_map:
+            m.ks_texture = textures.add(_image(t.ks_map, "render.material_textures.ks_map"))
+        names.append(o.material)
+        mats.append(m)
+    shading = []
+    for k, o in enumerate(cfg.scene.objects):
+        nmap = -1
+        if o.normal_map is not None:
+            nmap = textures.add(_image(o.normal_map, f"scene.objects.{k}.normal_map"))
+        shading.append(ObjectShading(material=names.index(o.material), vis=vis[k][0],
+                                     normal_map=nmap))
+    renderer = Renderer(env=env, materials=pack_materials(mats), objects=shading,
+                        textures=textures, lights=lights_of(rs), env_scale=scale,
+                        fh_mode=rs.fh)
+    return SceneBundle(renderer, objects, [p for _, p in vis], latlong)
+
+
+def _brdf_of(spec):
+    """The `sgpipe.brdf` BRDF of a material spec (exact D for fis)."""
+    from sgpipe.brdf import make_brdf
+    params = dict(spec.params or {})
+    if spec.merl_file:
+        params.setdefault("merl_file", str(spec.merl_file))
+    try:
+        return make_brdf(spec.model, params)
+    except (ValueError, TypeError) as e:
+        raise BadInput(f"cannot build BRDF {spec.model!r}: {e}",
+                       key=f"fit.materials.{spec.name}") from None
+
+
+def latlong_lookup(latlong: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+    """Radiance of the lat-long texel containing each direction (piecewise constant, GUIDE)."""
+    from sgpipe.core.maps import dir_to_latlong
+    h, w = latlong.shape[:2]
+    u, v = dir_to_latlong(np.asarray(dirs, float))
+    j = np.clip((u * w).astype(int), 0, w - 1)
+    i = np.clip((v * h).astype(int), 0, h - 1)
+    return latlong[i, j].astype(np.float32)
