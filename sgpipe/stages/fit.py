@@ -1,15 +1,198 @@
-"""The fit stage: `cfg.fit` -> artifacts under `<out>/fit/`."""
+"""The fit stage: `cfg.fit` -> artifacts under `<out>/fit/<material>/` (docs/ARTIFACTS.md)."""
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
-from sgpipe.stages.base import log
+import numpy as np
+
+from sgpipe.brdf import LUMINANCE, REGISTRY, BRDFParamError, make_brdf
+from sgpipe.config.schema import to_plain
+from sgpipe.errors import BadInput
+from sgpipe.fit.ndf_sg import NdfSG, analytic_ndf_sg, fit_ndf_sg, ndf_error_curve
+from sgpipe.fit.plot import plot_curves, slice_panels
+from sgpipe.fit.view_gmm import (fit_view_gmm, interpolation_errors, lobe_curve,
+                                 slice_images)
+from sgpipe.stages.base import StageRun, log
+
+_ENERGY_VIEWS_DEG = (0.0, 45.0, 75.0)
 
 
-def run(cfg, out_dir: Path, *, force: bool = False) -> None:
+def _build_brdf(cfg, n: int, spec):
+    """Validate one material and build its BRDF; every problem is a BadInput naming the key."""
+    base = f"fit.materials.{n}"
+    if spec.model not in REGISTRY:
+        raise BadInput(f"unknown BRDF model {spec.model!r} (known: {', '.join(sorted(REGISTRY))})",
+                       file=cfg.source, key=f"{base}.model")
+    params = dict(spec.params)
+    if spec.model == "merl":
+        params["merl_file"] = str(spec.merl_file)
+    try:
+        brdf = make_brdf(spec.model, params)
+    except BRDFParamError as e:
+        key = f"{base}.merl_file" if e.param == "merl_file" else f"{base}.params.{e.param}"
+        raise BadInput(e.message, file=cfg.source, key=key) from None
+    except BadInput as e:            # MERL file problems name the data file itself
+        raise BadInput(e.message, file=e.file, key=f"{base}.merl_file") from None
+    if spec.model != "merl":
+        th = np.radians(_ENERGY_VIEWS_DEG)
+        o = np.stack([np.sin(th), np.zeros_like(th), np.cos(th)], -1)
+        alb = brdf.albedo(o, n=48) @ LUMINANCE
+        if np.max(alb) > 1.01:
+            k = int(np.argmax(alb))
+            raise BadInput(f"parameters are not energy conserving: albedo {alb[k]:.3f} > 1 at "
+                           f"view θ = {_ENERGY_VIEWS_DEG[k]:g}° (lower kd/ks)",
+                           file=cfg.source, key=f"{base}.params")
+    return brdf
+
+
+def _set_threads(workers: int) -> None:
+    import numba
+    from sgpipe.parallel import default_workers
+    n = workers or default_workers()
+    numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
+
+
+def run(cfg, out_dir: Path, *, force: bool = False):
     """Run the fit stage of a validated config (no-op when the section is absent)."""
     if cfg.fit is None:
         log("[fit] no 'fit:' section in the config; nothing to do")
-        return
-    log("[fit] not implemented yet")
+        return None
+    fit = cfg.fit
+    brdfs = [_build_brdf(cfg, n, m) for n, m in enumerate(fit.materials)]
+    inputs = [str(m.merl_file) for m in fit.materials if m.merl_file is not None]
+    _set_threads(getattr(cfg, "workers", 0))
+    with StageRun(cfg, out_dir, "fit", params=to_plain(fit), inputs=inputs, force=force) as run:
+        if run.skipped:
+            return run
+        run.write_json("materials.json", {"materials": [m.name for m in fit.materials]})
+        for n, (spec, brdf) in enumerate(zip(fit.materials, brdfs)):
+            log(f"[fit] material {spec.name} ({spec.model})")
+            run.report[spec.name] = fit_material(run, cfg, n, spec, brdf)
+    return run
+
+
+def fit_material(run: StageRun, cfg, index: int, spec, brdf) -> dict:
+    """Write one material's folder; returns its summary for the manifest."""
+    name = spec.name
+    seed = int(getattr(cfg, "seed", 0)) * 1000 + index
+    report: dict = {"model": spec.model, "params": to_plain(spec.params)}
+    write_microfacet(run, name, brdf)
+    if hasattr(brdf, "fit"):
+        report["tabulated"] = write_tabulated(run, name, brdf.fit)
+    t0 = time.perf_counter()
+    report["ndf_sg"] = write_ndf_sg(run, name, brdf, cfg.fit.ndf_sg, seed)
+    run.timings[f"{name}.ndf_sg_s"] = time.perf_counter() - t0
+    if cfg.fit.view_gmm.enabled:
+        t0 = time.perf_counter()
+        report["view_gmm"] = write_view_gmm(run, name, brdf, cfg.fit.view_gmm, seed,
+                                            report["ndf_sg"])
+        run.timings[f"{name}.view_gmm_s"] = time.perf_counter() - t0
+    run.write_json(f"{name}/report.json", report)
+    summary = {"ndf_sg_rel_l2": report["ndf_sg"].get("rel_l2")}
+    if "view_gmm" in report:
+        summary["view_gmm_max_rel_l2"] = report["view_gmm"]["max_rel_l2"]
+    return summary
+
+
+def write_microfacet(run, name: str, brdf) -> None:
+    """microfacet.json (names and values) + microfacet.npz (numbers, float32/int32)."""
+    mf = brdf.microfacet_params()
+    arrays = {}
+    for k, v in mf.items():
+        if k.endswith("_kind"):
+            continue
+        if k == "model":
+            arrays[k] = np.array(v)
+        elif isinstance(v, (int, np.integer)) and k in ("diffuse", "fresnel", "shadowing"):
+            arrays[k] = np.int32(v)
+        else:
+            arrays[k] = np.asarray(v, np.float32)
+    run.write_npz(f"{name}/microfacet.npz", arrays)
+    run.write_json(f"{name}/microfacet.json", mf)
+
+
+def write_tabulated(run, name: str, tab) -> dict:
+    run.write_npz(f"{name}/tabulated.npz", tab.arrays())
+    return {"rel_err": tab.rel_err, "kd": tab.kd, "ks": tab.ks, "eta": tab.eta,
+            "shadow_pca_error": float(np.max(np.abs(tab.shadow - tab.shadow_raw)))}
+
+
+def write_ndf_sg(run, name: str, brdf, spec, seed: int) -> dict:
+    """ndf_sg.npz (possibly 0 lobes) and the NDF part of the report."""
+    ndf = brdf.ndf_model
+    if not (spec.enabled and brdf.has_specular):
+        empty = NdfSG(np.zeros((0, 3)), np.zeros(0), np.zeros(0), "none", 0.0)
+        run.write_npz(f"{name}/ndf_sg.npz", empty.arrays())
+        return {"lobes": 0, "method": "none"}
+    lobes = spec.lobes or (1 if ndf.isotropic and ndf.sg_analytic() is not None
+                           else (2 if ndf.isotropic else 8))
+    sg = fit_ndf_sg(ndf, method=spec.method, n_lobes=lobes, seed=seed)
+    if spec.method == "auto" and not spec.lobes and sg.method == "analytic" and sg.rel_l2 > 0.05:
+        lobes = 2                      # heavy tails (GGX): one Taylor lobe is not enough
+        sg = fit_ndf_sg(ndf, method="lm", n_lobes=lobes, seed=seed)
+    run.write_npz(f"{name}/ndf_sg.npz", sg.arrays())
+    rep = {"lobes": lobes, "method": sg.method, "rel_l2": sg.rel_l2,
+           "sharpness": sg.sharpness, "amplitude": sg.amplitude, "axis": sg.axis}
+    an = analytic_ndf_sg(ndf)
+    if an is not None:
+        an = fit_ndf_sg(ndf, method="analytic")
+        rep["analytic"] = {"sharpness": float(an.sharpness[0]),
+                           "amplitude": float(an.amplitude[0]), "rel_l2": an.rel_l2}
+    if spec.report_lobes:
+        fits = ndf_error_curve(ndf, spec.report_lobes, seed=seed)
+        rep["curve"] = {"lobes": list(range(1, len(fits) + 1)),
+                        "rel_l2": [f.rel_l2 for f in fits]}
+    return rep
+
+
+def write_view_gmm(run, name: str, brdf, spec, seed: int, ndf_rep: dict) -> dict:
+    """view_gmm.npz + view_gmm.exr, error curve and slice previews, interpolation errors."""
+    include_diffuse = spec.component == "full" or not brdf.has_specular
+    n_phi = spec.phi_count or (1 if brdf.isotropic else 8)
+    kw = dict(n_theta=spec.theta_count, n_phi=n_phi, theta_max=np.radians(spec.theta_max_deg),
+              n_lobes=spec.lobes, n_samples=spec.samples, max_iter=spec.iterations,
+              tol=spec.tolerance, align=spec.align, seed=seed, include_diffuse=include_diffuse)
+    gmm = fit_view_gmm(brdf, coherent=spec.coherent, **kw)
+    run.write_npz(f"{name}/view_gmm.npz", gmm.arrays())
+    run.write_exr(f"{name}/view_gmm.exr", gmm.texture(),
+                  channel_names=["R", "G", "B", "kappa", "mu_phi", "mu_theta"],
+                  metadata={"lobes": spec.lobes, "view_theta_max": float(np.radians(
+                      spec.theta_max_deg)), "theta_count": spec.theta_count, "phi_count": n_phi,
+                      "coherent": int(spec.coherent), "includes_diffuse": int(include_diffuse)})
+    th_deg = np.degrees(gmm.view_theta)
+    per_view = gmm.rel_l2.reshape(len(gmm.view_theta), n_phi).max(axis=1)
+    rep = {"lobes": spec.lobes, "samples": spec.samples, "views": int(gmm.view_dirs.shape[0]),
+           "includes_diffuse": include_diffuse, "coherent": spec.coherent,
+           "view_theta_deg": th_deg, "rel_l2_per_theta": per_view,
+           "max_rel_l2": float(gmm.rel_l2.max()),
+           "max_rel_l2_theta_le_60": float(per_view[th_deg <= 60.0 + 1e-9].max(initial=0.0))}
+    thetas = np.radians(spec.report_views_deg)
+    series = []
+    if spec.report_lobes:
+        curve = lobe_curve(brdf, thetas, spec.report_lobes, n_samples=spec.samples, seed=seed,
+                           include_diffuse=include_diffuse, max_iter=spec.iterations,
+                           tol=spec.tolerance)
+        rep["curve"] = {"lobes": list(range(1, spec.report_lobes + 1)),
+                        "view_theta_deg": list(spec.report_views_deg), "rel_l2": curve,
+                        "rel_l2_mean": curve.mean(axis=0)}
+        series += [(rep["curve"]["lobes"], list(c)) for c in curve]
+    if "curve" in ndf_rep:
+        series.append((ndf_rep["curve"]["lobes"], ndf_rep["curve"]["rel_l2"]))
+    if series:
+        run.write_png(f"{name}/error_vs_lobes.png", plot_curves(series))
+    if len(thetas):
+        run.write_png(f"{name}/slices.png", slice_panels(slice_images(brdf, gmm, thetas)))
+    if spec.holdout and spec.theta_count > 1:
+        th_h, err = interpolation_errors(brdf, gmm)
+        key = "coherent" if spec.coherent else "independent"
+        rep["interpolation"] = {"heldout_theta_deg": np.degrees(th_h), key: err}
+        if spec.coherent:
+            other = fit_view_gmm(brdf, coherent=False, errors=False, **kw)
+            rep["interpolation"]["independent"] = interpolation_errors(brdf, other)[1]
+        for k in ("coherent", "independent"):
+            if k in rep["interpolation"]:
+                rep["interpolation"][f"{k}_mean"] = float(np.mean(rep["interpolation"][k]))
+    rep["albedo_lum"] = gmm.albedo @ LUMINANCE
+    return rep

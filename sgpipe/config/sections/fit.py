@@ -2,24 +2,98 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 from sgpipe.config.schema import InputPath, doc
+
+_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
 
 
 @dataclass
 class MaterialSpec:
     """One material: an analytic model with parameters, or a measured MERL file."""
 
-    name: str = doc("Material name (referenced by scene objects).")
-    model: str = doc("BRDF model name (see `sgpipe fit --help`).", "lambert")
-    params: dict[str, Any] = doc("Model parameters (model-specific).", default_factory=dict)
+    name: str = doc("Material name (referenced by scene objects); also the folder "
+                    "<out>/fit/<name>/. Letters, digits, '_', '-', '.'.")
+    model: str = doc("BRDF model: lambert, blinn_phong, cook_torrance, ward, "
+                     "ashikhmin_shirley, beckmann, ggx, merl (see sgpipe.brdf).", "lambert")
+    params: dict[str, Any] = doc("Model parameters, e.g. {alpha: 0.1, kd: [0.2, 0.1, 0.05], "
+                                 "ks: 0.9, fresnel: schlick, f0: 0.04}.", default_factory=dict)
     merl_file: InputPath | None = doc("MERL .binary file (model: merl).", None)
+
+    def validate(self):
+        if not _NAME.match(self.name):
+            raise ValueError(f"name: must be letters, digits, '_', '-', '.' (got {self.name!r})")
+        if self.model == "merl" and self.merl_file is None:
+            raise ValueError("merl_file: model 'merl' needs merl_file")
+        if self.model != "merl" and self.merl_file is not None:
+            raise ValueError(f"merl_file: only used with model 'merl' (model is {self.model!r})")
+
+
+@dataclass
+class NdfSGSpec:
+    """Wang09 §4 SG lobes of the NDF (microfacet form used by the SG renderer)."""
+
+    enabled: bool = doc("Fit SG lobes to the NDF.", True)
+    method: Literal["auto", "analytic", "lm", "lbfgsb"] = doc(
+        "auto: analytic (eq 12 and equivalents) for isotropic parametric NDFs, "
+        "Levenberg–Marquardt about +z for tabulated ones, L-BFGS-B with free axes for "
+        "anisotropic ones.", "auto")
+    lobes: int = doc("Lobes (0 = auto: 1 analytic — 2 LM lobes if its error exceeds 5 %, e.g. "
+                     "GGX tails —, 2 tabulated, 8 anisotropic).", 0, ge=0, le=16)
+    report_lobes: int = doc("Largest lobe count of the error-vs-lobes report (0 = none).", 4,
+                            ge=0, le=16)
+
+
+@dataclass
+class ViewGmmSpec:
+    """Paper 000 §IV: per-view vMF mixtures of ρ(i, o_j)(n·i) fitted by spherical EM."""
+
+    enabled: bool = doc("Fit the per-view mixtures.", True)
+    lobes: int = doc("vMF lobes per view (paper: 8).", 8, ge=1, le=32)
+    samples: int = doc("Importance samples per view.", 4096, ge=64, le=1 << 20)
+    iterations: int = doc("Maximum EM iterations per fit.", 100, ge=1, le=10000)
+    tolerance: float = doc("EM stops when the log-likelihood changes less than this "
+                           "(relative).", 1e-5, ge=0)
+    theta_count: int = doc("View elevations θ_t = θ_max t/(count−1).", 16, ge=2, le=256)
+    phi_count: int = doc("View azimuths (0 = auto: 1 for isotropic, 8 for anisotropic).", 0,
+                         ge=0, le=256)
+    theta_max_deg: float = doc("Largest view elevation (degrees).", 85.0, gt=0, le=89.9)
+    component: Literal["specular", "full"] = doc(
+        "Fit the specular part only (paper 000; the renderer adds the diffuse term) or the "
+        "whole BRDF. Models without a specular lobe always use full.", "specular")
+    coherent: bool = doc("Fit views in order, each from its neighbour's lobes with the Han07 "
+                         "eq 23 alignment prior, so lobe k corresponds across views.", False)
+    align: float = doc("Alignment strength C of Han07 eq 23 (coherent only).", 1.0, ge=0)
+    holdout: bool = doc("Measure interpolation error at held-out views halfway in θ (with "
+                        "coherent: true also for independent fits, for comparison).", True)
+    report_views_deg: list[float] = doc("View elevations for the error-vs-lobes curve and "
+                                        "the slice previews.",
+                                        default_factory=lambda: [0.0, 30.0, 60.0])
+    report_lobes: int = doc("Largest lobe count of the error-vs-lobes curve (0 = none).", 8,
+                            ge=0, le=32)
+
+    def validate(self):
+        for k, v in enumerate(self.report_views_deg):
+            if not 0.0 <= v < 90.0:
+                raise ValueError(f"report_views_deg.{k}: must be in [0, 90), got {v}")
 
 
 @dataclass
 class FitSection:
-    """Materials to fit."""
+    """Materials to fit and the two lobe representations produced for each."""
 
     materials: list[MaterialSpec] = doc("Materials.", default_factory=list)
+    ndf_sg: NdfSGSpec = doc("Wang09 NDF lobes.", default_factory=NdfSGSpec)
+    view_gmm: ViewGmmSpec = doc("Paper 000 per-view mixtures.", default_factory=ViewGmmSpec)
+
+    def validate(self):
+        names = [m.name for m in self.materials]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"materials: duplicate material names {dup}")
+
+
+__all__ = ["MaterialSpec", "NdfSGSpec", "ViewGmmSpec", "FitSection"]
