@@ -1,0 +1,1 @@
+"""Experiments that reproduce the papers' figures through the real stages (`make figures`)."""

@@ -1,0 +1,299 @@
+"""Per-tile estimator of the `reference` method (see sgpipe.render.reference): the lat-long
+environment sampler, material / light normalisation and the MIS estimator over one tile of
+hit pixels. `shade_tile` is the module-level function mapped over tiles by map_chunks."""
+
+from __future__ import annotations
+
+import os
+import pickle
+
+import numpy as np
+
+from sgpipe.render import _reference_jit as jit
+
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+_ROWS_PER_PASS = 1 << 16  # sample rows per numpy batch inside a tile
+
+
+# --- environment ----------------------------------------------------------------------------
+class EnvSampler:
+    """Piecewise-constant lat-long environment with its importance-sampling distribution."""
+
+    def __init__(self, image):
+        if image is None:
+            image = np.zeros((1, 2, 3))
+        if isinstance(image, (str, os.PathLike)):
+            from sgpipe.io import read_exr
+            image = read_exr(image, channels=(1, 3, 4), key="envmap.environment")
+        rgb = np.asarray(image, np.float64)
+        if rgb.ndim == 2:
+            rgb = rgb[:, :, None]
+        if rgb.shape[2] == 1:
+            rgb = np.repeat(rgb, 3, axis=2)
+        rgb = np.ascontiguousarray(rgb[:, :, :3])
+        if not np.isfinite(rgb).all():
+            raise ValueError("environment has NaN/Inf texels")
+        self.rgb = np.maximum(rgb, 0.0)
+        self.lum = np.ascontiguousarray(self.rgb @ LUMA)
+        self.row_cdf, self.col_cdf, self.cos_edge, self.z = jit.build_distribution(self.lum)
+
+    @property
+    def shape(self):
+        return self.lum.shape
+
+    def sample(self, u1, u2):
+        """(dirs (N,3), solid-angle pdf (N,), radiance (N,3)) for uniforms u1, u2 (N,)."""
+        return jit.sample_env(np.ascontiguousarray(u1, np.float64),
+                              np.ascontiguousarray(u2, np.float64), self.row_cdf,
+                              self.col_cdf, self.cos_edge, self.lum, self.rgb, self.z)
+
+    def lookup(self, dirs):
+        """(radiance (N,3), pdf (N,)) of unit world directions (N,3)."""
+        return jit.lookup_env(np.ascontiguousarray(dirs, np.float64), self.lum, self.rgb, self.z)
+
+    def pdf(self, dirs):
+        return self.lookup(dirs)[1]
+
+
+# --- materials and lights -------------------------------------------------------------------
+def _material_key(m):
+    """Picklable description of a material: a BRDF object, or (model, params)."""
+    if hasattr(m, "eval") and hasattr(m, "sample") and hasattr(m, "pdf"):
+        return m
+    if isinstance(m, (tuple, list)) and len(m) == 2:
+        return (str(m[0]), dict(m[1] or {}))
+    if isinstance(m, dict):
+        return (str(m["model"]), dict(m.get("params") or {}))
+    if hasattr(m, "model"):
+        params = dict(getattr(m, "params", None) or {})
+        if getattr(m, "merl_file", None):
+            params.setdefault("merl_file", str(m.merl_file))
+        return (str(m.model), params)
+    raise TypeError(f"cannot make a BRDF from {m!r}")
+
+
+def _make_brdf(key):
+    if not isinstance(key, tuple):
+        return key
+    from sgpipe.brdf import make_brdf
+    return make_brdf(key[0], key[1])
+
+
+def materials_for_scene(cfg) -> list:
+    """Per-object `(model, params)` from `cfg.scene.objects[*].material` → `cfg.fit.materials`."""
+    from sgpipe.errors import BadInput
+    mats = {m.name: m for m in (cfg.fit.materials if cfg.fit is not None else [])}
+    out = []
+    for k, o in enumerate(cfg.scene.objects if cfg.scene is not None else []):
+        if o.material not in mats:
+            raise BadInput(f"material {o.material!r} is not defined in fit.materials",
+                           file=getattr(cfg, "source", None), key=f"scene.objects.{k}.material")
+        out.append(_material_key(mats[o.material]))
+    return out
+
+
+def _get(obj, *names, default=None):
+    for n in names:
+        v = obj.get(n) if isinstance(obj, dict) else getattr(obj, n, None)
+        if v is not None:
+            return v
+    return default
+
+
+def _rgb(v):
+    a = np.asarray(v, np.float64).reshape(-1)
+    return np.repeat(a, 3) if a.size == 1 else a[:3]
+
+
+def normalize_lights(lights) -> list[tuple]:
+    """Lights → [("directional", unit dir to light, E rgb) | ("point", position, I rgb)]."""
+    out = []
+    for L in lights or ():
+        kind = str(_get(L, "type", "kind", default="directional")).lower()
+        if kind in ("directional", "distant", "sun"):
+            d = np.asarray(_get(L, "direction", "vector"), np.float64)
+            d = d / np.linalg.norm(d)
+            e = _rgb(_get(L, "irradiance", "intensity", "color", "radiance", default=1.0))
+            out.append(("directional", d, e))
+        elif kind == "point":
+            p = np.asarray(_get(L, "position", "vector"), np.float64)
+            out.append(("point", p, _rgb(_get(L, "intensity", "color", default=1.0))))
+        else:
+            raise ValueError(f"unknown light type {kind!r}")
+    return out
+
+
+# --- the per-tile estimator -----------------------------------------------------------------
+def _brdf_eval(brdf, o, i, scale=None):
+    """ρ(o, i) as (N, 3); `scale` = (kd multiplier (N,3), ks multiplier (N,3)) for textures."""
+    if scale is not None:
+        return (scale[0] * np.asarray(brdf.diffuse(o, i), np.float64)
+                + scale[1] * np.asarray(brdf.specular(o, i), np.float64))
+    f = np.asarray(brdf.eval(o, i), np.float64)
+    if f.ndim == 1:
+        f = np.repeat(f[:, None], 3, axis=1)
+    return f[:, :3] if f.shape[1] >= 3 else np.repeat(f[:, :1], 3, axis=1)
+
+
+def _mis_weight(pa, pb, mode):
+    if mode == "balance":
+        den = pa + pb
+        return np.where(den > 0, pa / np.where(den > 0, den, 1.0), 0.0)
+    a2, b2 = pa * pa, pb * pb
+    den = a2 + b2
+    return np.where(den > 0, a2 / np.where(den > 0, den, 1.0), 0.0)
+
+
+def _to_world(v, t, b, n):
+    return v[:, :1] * t + v[:, 1:2] * b + v[:, 2:3] * n
+
+
+def _offset(pos, ng):
+    scale = 1e-4 * np.maximum(1.0, np.abs(pos).max(axis=1, keepdims=True))
+    return pos + ng * scale
+
+
+def _visible(tracer, origin, dirs, tmax=np.inf):
+    if tracer is None or len(origin) == 0:
+        return np.ones(len(origin), bool)
+    return ~tracer.occluded(origin, dirs, tmax=tmax, tnear=1e-5)
+
+
+def _technique(brdf, tracer, env, o, t, b, n, ng, org, tex, u1, u2, which, strategy, mis):
+    """Contributions (N, 3) of one BRDF sample ("brdf") or one env sample ("env") per row."""
+    nrow = len(o)
+    out = np.zeros((nrow, 3))
+    if which == "brdf":
+        i_loc, pb = brdf.sample(o, u1, u2)
+        i_loc = np.asarray(i_loc, np.float64)
+        pb = np.asarray(pb, np.float64)
+        ok = (pb > 0) & (i_loc[:, 2] > 0) & np.isfinite(pb) & np.isfinite(i_loc).all(axis=1)
+        w_dir = _to_world(i_loc, t, b, n)
+        ok &= np.einsum("ij,ij->i", w_dir, ng) > 0
+        if not ok.any():
+            return out
+        idx = np.flatnonzero(ok)
+        il, wd, p_own = i_loc[idx], w_dir[idx], pb[idx]
+        rad, p_other = env.lookup(wd)
+    else:
+        wd_all, pe, rad_all = env.sample(u1, u2)
+        i_loc = np.stack([np.einsum("ij,ij->i", wd_all, t), np.einsum("ij,ij->i", wd_all, b),
+                          np.einsum("ij,ij->i", wd_all, n)], -1)
+        ok = (pe > 0) & (i_loc[:, 2] > 0) & (np.einsum("ij,ij->i", wd_all, ng) > 0)
+        if not ok.any():
+            return out
+        idx = np.flatnonzero(ok)
+        il, wd, p_own, rad = i_loc[idx], wd_all[idx], pe[idx], rad_all[idx]
+        p_other = np.asarray(brdf.pdf(o[idx], il), np.float64) if strategy == "mis" else None
+    f = _brdf_eval(brdf, o[idx], il, None if tex is None else (tex[0][idx], tex[1][idx]))
+    w = _mis_weight(p_own, p_other, mis) if strategy == "mis" else 1.0
+    c = f * rad * (il[:, 2] * w / p_own)[:, None]
+    live = np.flatnonzero((c > 0).any(axis=1) & np.isfinite(c).all(axis=1))
+    if live.size:
+        vis = _visible(tracer, org[idx[live]], wd[live])
+        out[idx[live]] = c[live] * vis[:, None]
+    return out
+
+
+def _direct_lights(brdf, tracer, lights, o, t, b, n, ng, pos, org, tex):
+    """Exact contribution of delta lights, (P, 3)."""
+    out = np.zeros((len(o), 3))
+    for kind, v, e in lights:
+        if kind == "directional":
+            d = np.broadcast_to(v, pos.shape)
+            tmax = np.inf
+            scale = np.ones(len(o))
+        else:
+            d = v - pos
+            dist = np.linalg.norm(d, axis=1)
+            d = d / np.maximum(dist, 1e-30)[:, None]
+            tmax = dist
+            scale = 1.0 / np.maximum(dist, 1e-30) ** 2
+        il = np.stack([np.einsum("ij,ij->i", d, t), np.einsum("ij,ij->i", d, b),
+                       np.einsum("ij,ij->i", d, n)], -1)
+        ok = np.flatnonzero((il[:, 2] > 0) & (np.einsum("ij,ij->i", d, ng) > 0))
+        if ok.size == 0:
+            continue
+        tx = None if tex is None else (tex[0][ok], tex[1][ok])
+        c = _brdf_eval(brdf, o[ok], il[ok], tx) * e * (il[ok, 2] * scale[ok])[:, None]
+        tm = tmax if np.isscalar(tmax) else tmax[ok]
+        vis = _visible(tracer, org[ok], np.ascontiguousarray(d[ok]), tmax=tm)
+        out[ok] += c * vis[:, None]
+    return out
+
+
+_CACHE: dict = {}
+
+
+def _shared(task):
+    """Per-process cache of the scene (tracer, env sampler, BRDFs) for one render call."""
+    key = task["key"]
+    if _CACHE.get("key") != key:
+        from sgpipe.render.gbuffer import Tracer
+        shared = task["shared"]
+        if isinstance(shared, str):
+            with open(shared, "rb") as fh:
+                shared = pickle.load(fh)
+        _CACHE.clear()
+        _CACHE.update(key=key, tracer=Tracer(shared["objects"]) if shared["objects"] else None,
+                      env=shared["env"] if isinstance(shared["env"], EnvSampler)
+                      else EnvSampler(shared["env"]),
+                      brdfs=[_make_brdf(m) for m in shared["materials"]],
+                      lights=shared["lights"], opts=shared["opts"])
+    return _CACHE
+
+
+def shade_tile(task) -> dict:
+    """Render one tile (module-level for map_chunks): returns checkpoint sums and variances."""
+    sh = _shared(task)
+    tracer, env, brdfs, lights, opts = sh["tracer"], sh["env"], sh["brdfs"], sh["lights"], \
+        sh["opts"]
+    pid, mat = task["pixel_ids"], task["material"]
+    pos, n, t, b, ng, view = (np.asarray(task[k], np.float64)
+                              for k in ("position", "normal", "tangent", "bitangent",
+                                        "geo_normal", "view"))
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    t = t - np.einsum("ij,ij->i", t, n)[:, None] * n  # GUIDE frame: t ⟂ n, b = n × t
+    t = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-30)
+    b = np.cross(n, t)
+    npx = len(pid)
+    spp, ck = opts["spp"], opts["checkpoints"]
+    strategy, mis, seed = opts["strategy"], opts["mis"], opts["seed"]
+    o_loc = np.stack([np.einsum("ij,ij->i", view, t), np.einsum("ij,ij->i", view, b),
+                      np.einsum("ij,ij->i", view, n)], -1)
+    org = _offset(pos, ng)
+    tex = task.get("tex")  # (kd scale (P,3), ks scale (P,3)) or None
+    s_sum = np.zeros((npx, 3))
+    s_sq = np.zeros((npx, 3))
+    direct = np.zeros((npx, 3))
+    ck_sums = []
+    for m in np.unique(mat):
+        sel = np.flatnonzero(mat == m)
+        direct[sel] = _direct_lights(brdfs[m], tracer, lights, o_loc[sel], t[sel], b[sel],
+                                     n[sel], ng[sel], pos[sel], org[sel],
+                                     None if tex is None else (tex[0][sel], tex[1][sel]))
+    techniques = {"mis": ("brdf", "env"), "brdf": ("brdf",), "env": ("env",)}[strategy]
+    per_pass = max(1, _ROWS_PER_PASS // max(npx, 1))
+    done = 0
+    bounds = sorted(set(ck) | {spp})
+    while done < spp:
+        nxt = min(done + per_pass, min(c for c in bounds if c > done))
+        ns = nxt - done
+        u = jit.uniforms(np.uint64(seed), pid.astype(np.int64), done, ns, 4)
+        est = np.zeros((npx, ns, 3))
+        for m in np.unique(mat):
+            sel = np.flatnonzero(mat == m)
+            rep = lambda a: np.repeat(a[sel], ns, axis=0)  # noqa: E731
+            args = (rep(o_loc), rep(t), rep(b), rep(n), rep(ng), rep(org),
+                    None if tex is None else (rep(tex[0]), rep(tex[1])))
+            acc = np.zeros((len(sel) * ns, 3))
+            for k, which in enumerate(techniques):
+                acc += _technique(brdfs[m], tracer, env, *args,
+                                  u[sel, :, 2 * k].ravel(), u[sel, :, 2 * k + 1].ravel(),
+                                  which, strategy, mis)
+            est[sel] = acc.reshape(len(sel), ns, 3)
+        jit.accumulate(est.reshape(-1, 3), npx, ns, s_sum, s_sq)
+        done = nxt
+        if done in ck:
+            ck_sums.append(s_sum.copy())
+    return {"sum": s_sum, "sq": s_sq, "direct": direct, "checkpoints": ck_sums}
