@@ -3,14 +3,47 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from sgpipe.config.schema import doc
 
 
 @dataclass
 class VisibilitySection:
-    """Visibility precomputation for the objects of `scene:`."""
+    """Visibility precomputation for the objects of `scene:` (Wang09 §5)."""
 
-    trace_resolution: int = doc("Concentric-square trace resolution per vertex.", 512, ge=8)
-    resolution: int = doc("Downsampled visibility/SSDF resolution.", 128, ge=4)
-    pca_terms: int = doc("Number of PCA terms N_V.", 48, ge=1)
+    trace_resolution: int = doc("Concentric-square trace resolution per vertex "
+                                "(trace_resolution² occlusion rays per vertex).", 512, ge=8)
+    resolution: int = doc("Downsampled visibility/SSDF resolution (must divide "
+                          "trace_resolution).", 128, ge=4)
+    sampling: Literal["full", "adaptive"] = doc(
+        "'full' traces every trace texel (Wang09 §5.2); 'adaptive' traces one ray per "
+        "output texel and all trace texels only near visibility changes (faster; misses "
+        "occluders smaller than an output texel).", "full")
+    adaptive_margin: int = doc("Adaptive sampling: output texels refined around each "
+                               "coarse visibility change.", 1, ge=1, le=8)
+    pca_terms: int = doc("Number of PCA terms N_V (Wang09 eq 24).", 48, ge=1)
+    max_distance_deg: float = doc("Clamp of the SSDF magnitude (degrees); also the value "
+                                  "of fully occluded hemispheres.", 90.0, gt=0, le=90)
+    ray_offset: float = doc("Self-intersection offset along the vertex normal, as a "
+                            "fraction of the scene's bounding-box diagonal.", 1e-4, gt=0, lt=0.1)
+    chunk_vertices: int = doc("Vertices per parallel work item (bounds memory).", 128, ge=1)
+    sphere_subdivisions: int = doc("Icosphere subdivisions for `sphere_radius` objects.",
+                                   4, ge=0, le=7)
+    power_iterations: int = doc("Power iterations of the randomized streaming PCA.", 3,
+                                ge=0, le=10)
+    preview_vertices: int = doc("Vertices per object shown in previews/.", 4, ge=0)
+    report_vertices: int = doc("Sample vertices per object for the accuracy report.", 6, ge=0)
+    report_directions: int = doc("Lobe axes per sample vertex in the accuracy report.", 8,
+                                 ge=1)
+    report_lambdas: list[float] = doc("SG sharpnesses of the accuracy report (Wang09 Fig 7).",
+                                      default_factory=lambda: [2.0, 10.0, 50.0, 200.0, 1000.0])
+    report_samples: int = doc("Stratified SG-importance rays per lobe for the ray-traced "
+                              "ground truth (rounded to a square).", 4096, ge=16)
+
+    def validate(self):
+        if self.trace_resolution % self.resolution:
+            raise ValueError(f"resolution: must divide trace_resolution "
+                             f"({self.trace_resolution}), got {self.resolution}")
+        if any(not (lam > 0) for lam in self.report_lambdas):
+            raise ValueError("report_lambdas: every sharpness must be > 0")

@@ -1,0 +1,260 @@
+"""Scene geometry shared by the visibility and render stages: load, transform, validate,
+vertex normals and tangents (GUIDE: tangents from UVs when present, else azimuthal around +Y).
+
+Bad meshes never crash or pass silently: empty meshes, non-finite vertices and meshes with no
+usable triangle raise BadInput (naming file and key); degenerate triangles, unreferenced
+vertices and unusable normals are repaired and reported as counted warnings.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sgpipe.core.rotation import axis_angle_matrix
+from sgpipe.core.sphere import tangent_frame
+from sgpipe.errors import BadInput
+
+# A triangle whose area is below this fraction of (bounding-box diagonal)² is degenerate.
+_DEGENERATE_REL_AREA = 1e-14
+
+
+@dataclass
+class MeshGeometry:
+    """World-space triangle mesh of one scene object, ready for tracing and shading."""
+
+    name: str
+    material: str
+    positions: np.ndarray            # (V, 3) float64, world
+    normals: np.ndarray              # (V, 3) unit
+    tangents: np.ndarray             # (V, 3) unit, ⟂ normals
+    faces: np.ndarray                # (F, 3) int32
+    uvs: np.ndarray                  # (V, 2), zeros when has_uvs is False
+    has_uvs: bool
+    source: str | None = None
+    warnings: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def bitangents(self) -> np.ndarray:
+        """GUIDE: b = n × t."""
+        return np.cross(self.normals, self.tangents)
+
+    @property
+    def triangles(self) -> np.ndarray:
+        """(F, 3, 3) corner positions."""
+        return self.positions[self.faces]
+
+
+def object_matrix(translate=(0.0, 0.0, 0.0), rotate_deg=(0.0, 0.0, 0.0),
+                  scale=1.0) -> np.ndarray:
+    """4×4 world matrix: uniform scale, then rotate about X, then Y, then Z, then translate."""
+    rx, ry, rz = np.radians(np.asarray(rotate_deg, float))
+    R = (axis_angle_matrix((0.0, 0.0, 1.0), rz) @ axis_angle_matrix((0.0, 1.0, 0.0), ry)
+         @ axis_angle_matrix((1.0, 0.0, 0.0), rx))
+    M = np.eye(4)
+    M[:3, :3] = R * float(scale)
+    M[:3, 3] = np.asarray(translate, float)
+    return M
+
+
+def _transform(M: np.ndarray, positions: np.ndarray, normals: np.ndarray | None):
+    p = positions @ M[:3, :3].T + M[:3, 3]
+    n = None
+    if normals is not None:
+        n = normals @ np.linalg.inv(M[:3, :3])   # inverse transpose, row-vector form
+    return p, n
+
+
+def _unit_rows(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Normalised rows and a mask of rows whose length was usable."""
+    ln = np.linalg.norm(v, axis=1)
+    ok = np.isfinite(ln) & (ln > 1e-20)
+    out = np.zeros_like(v)
+    out[ok] = v[ok] / ln[ok, None]
+    return out, ok
+
+
+def area_weighted_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Σ over incident faces of (e1 × e2) (= 2·area·face normal), unnormalised, per vertex."""
+    tri = positions[faces]
+    fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    acc = np.zeros_like(positions)
+    for k in range(3):
+        for c in range(3):
+            acc[:, c] += np.bincount(faces[:, k], weights=fn[:, c], minlength=len(positions))
+    return acc
+
+
+def uv_tangents(positions, faces, uvs, normals) -> tuple[np.ndarray, np.ndarray]:
+    """Per-vertex tangents ∂p/∂u (Lengyel), area-weighted, Gram–Schmidt against n.
+
+    Returns (tangents, ok): ok is False where the UV derivative is degenerate."""
+    tri = positions[faces]
+    tuv = uvs[faces]
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    d1, d2 = tuv[:, 1] - tuv[:, 0], tuv[:, 2] - tuv[:, 0]
+    det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
+    good = np.abs(det) > 1e-20
+    r = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
+    # Weight by |det| so each face contributes ∝ its UV area ⇒ magnitude-consistent sums.
+    ft = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) * (r * np.abs(det))[:, None]
+    acc = np.zeros_like(positions)
+    for k in range(3):
+        for c in range(3):
+            acc[:, c] += np.bincount(faces[:, k], weights=ft[:, c], minlength=len(positions))
+    acc -= np.sum(acc * normals, axis=1, keepdims=True) * normals
+    t, ok = _unit_rows(acc)
+    ln = np.linalg.norm(acc, axis=1)
+    scale = np.median(ln[ok]) if ok.any() else 0.0
+    ok &= ln > 1e-6 * scale
+    return t, ok
+
+
+def build_mesh(positions, faces, *, normals=None, uvs=None, name="object", material="default",
+               source=None, key=None) -> MeshGeometry:
+    """Validate a world-space mesh and complete it with unit normals and tangents."""
+    file = source
+    P = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    Fc = np.asarray(faces).reshape(-1, 3) if np.size(faces) else np.zeros((0, 3), np.int64)
+    if len(P) == 0 or len(Fc) == 0:
+        raise BadInput(f"mesh is empty ({len(P)} vertices, {len(Fc)} triangles)",
+                       file=file, key=key)
+    bad = ~np.isfinite(P).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise BadInput(f"{int(bad.sum())} vertices are not finite (first: vertex {i} = "
+                       f"{P[i].tolist()})", file=file, key=key)
+    if not np.issubdtype(Fc.dtype, np.integer):
+        raise BadInput("face indices are not integers", file=file, key=key)
+    if Fc.min() < 0 or Fc.max() >= len(P):
+        raise BadInput(f"face indices out of range [0, {len(P)})", file=file, key=key)
+    warnings: dict[str, int] = {}
+    diag = float(np.linalg.norm(P.max(0) - P.min(0)))
+    tri = P[Fc]
+    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    degenerate = ((Fc[:, 0] == Fc[:, 1]) | (Fc[:, 1] == Fc[:, 2]) | (Fc[:, 0] == Fc[:, 2])
+                  | (area2 <= 2 * _DEGENERATE_REL_AREA * max(diag, 1e-300) ** 2))
+    if degenerate.all():
+        raise BadInput(f"all {len(Fc)} triangles are degenerate (zero area)", file=file, key=key)
+    if degenerate.any():
+        warnings["degenerate_triangles_removed"] = int(degenerate.sum())
+        Fc = Fc[~degenerate]
+    used = np.zeros(len(P), bool)
+    used[Fc.ravel()] = True
+    if not used.all():
+        warnings["unreferenced_vertices_removed"] = int((~used).sum())
+        remap = np.cumsum(used) - 1
+        Fc = remap[Fc]
+        P = P[used]
+        normals = None if normals is None else np.asarray(normals, float).reshape(-1, 3)[used]
+        uvs = None if uvs is None else np.asarray(uvs, float).reshape(-1, 2)[used]
+    Fc = Fc.astype(np.int32)
+
+    geo_n, geo_ok = _unit_rows(area_weighted_normals(P, Fc))
+    if normals is not None:
+        N, ok = _unit_rows(np.asarray(normals, float).reshape(-1, 3))
+        if (~ok).any():
+            warnings["invalid_file_normals_recomputed"] = int((~ok).sum())
+        N[~ok] = geo_n[~ok]
+        ok = ok | geo_ok
+    else:
+        N, ok = geo_n, geo_ok
+    if (~ok).any():   # incident face normals cancel (e.g. a doubled sheet): first face's normal
+        warnings["vertices_with_cancelling_normals"] = int((~ok).sum())
+        fn, _ = _unit_rows(np.cross(P[Fc[:, 1]] - P[Fc[:, 0]], P[Fc[:, 2]] - P[Fc[:, 0]]))
+        first = np.full(len(P), -1)
+        first[Fc[::-1].ravel()] = np.repeat(np.arange(len(Fc))[::-1], 3)
+        N[~ok] = fn[first[~ok]]
+
+    has_uvs = uvs is not None and np.isfinite(uvs).all()
+    if uvs is not None and not has_uvs:
+        warnings["non_finite_uvs_ignored"] = 1
+    T_default, _ = tangent_frame(N)
+    T = np.asarray(T_default, float)
+    if has_uvs:
+        UV = np.asarray(uvs, float).reshape(-1, 2)
+        T_uv, ok_uv = uv_tangents(P, Fc, UV, N)
+        T = np.where(ok_uv[:, None], T_uv, T)
+        if (~ok_uv).any():
+            warnings["degenerate_uv_tangents_fallback"] = int((~ok_uv).sum())
+    else:
+        UV = np.zeros((len(P), 2))
+    return MeshGeometry(name=name, material=material, positions=P, normals=N, tangents=T,
+                        faces=Fc, uvs=UV, has_uvs=bool(has_uvs), source=source,
+                        warnings=warnings)
+
+
+def _read_mesh_file(path: Path, key: str | None):
+    """Positions, faces, normals|None, uvs|None of every geometry in a mesh file (node
+    transforms applied), concatenated."""
+    import trimesh
+    try:
+        loaded = trimesh.load(str(path), process=False)
+    except Exception as e:  # trimesh raises many types for malformed files
+        raise BadInput(f"cannot load mesh ({type(e).__name__}: {e})", file=path,
+                       key=key) from None
+    parts = []
+    if isinstance(loaded, trimesh.Trimesh):
+        parts.append((np.eye(4), loaded))
+    elif isinstance(loaded, trimesh.Scene):
+        for node in loaded.graph.nodes_geometry:
+            M, gname = loaded.graph[node]
+            g = loaded.geometry.get(gname)
+            if isinstance(g, trimesh.Trimesh):
+                parts.append((np.asarray(M, float), g))
+    else:
+        raise BadInput(f"not a triangle mesh ({type(loaded).__name__})", file=path, key=key)
+    if not parts:
+        raise BadInput("mesh is empty (no triangle geometry)", file=path, key=key)
+    Ps, Fs, Ns, UVs, off = [], [], [], [], 0
+    for M, g in parts:
+        v = np.asarray(g.vertices, float)
+        n = g._cache["vertex_normals"] if "vertex_normals" in g._cache else None
+        n = None if n is None or np.shape(n) != v.shape else np.asarray(n, float)
+        v, n = _transform(M, v, n)
+        uv = getattr(g.visual, "uv", None) if g.visual is not None else None
+        uv = None if uv is None or len(uv) != len(v) else np.asarray(uv, float)
+        Ps.append(v)
+        Fs.append(np.asarray(g.faces, np.int64) + off)
+        Ns.append(n)
+        UVs.append(uv)
+        off += len(v)
+    P = np.concatenate(Ps) if Ps else np.zeros((0, 3))
+    F = np.concatenate(Fs) if Fs else np.zeros((0, 3), np.int64)
+    N = np.concatenate(Ns) if all(n is not None for n in Ns) else None
+    UV = np.concatenate(UVs) if all(u is not None for u in UVs) else None
+    return P, F, N, UV
+
+
+def sphere_mesh(radius: float, subdivisions: int):
+    """Icosphere (positions, faces, exact normals) of an analytic sphere object."""
+    import trimesh
+    s = trimesh.creation.icosphere(subdivisions=int(subdivisions), radius=1.0)
+    n = np.asarray(s.vertices, float)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    return n * float(radius), np.asarray(s.faces, np.int64), n
+
+
+def load_object(obj, index: int = 0, *, sphere_subdivisions: int = 4) -> MeshGeometry:
+    """One `scene.objects[i]` entry (ObjectSpec) → world-space MeshGeometry."""
+    M = object_matrix(obj.translate, obj.rotate_deg, obj.scale)
+    if obj.mesh is not None:
+        key = f"scene.objects.{index}.mesh"
+        P, F, N, UV = _read_mesh_file(Path(obj.mesh), key)
+        P, N = _transform(M, P, N)   # NaN stays NaN: build_mesh reports it
+        return build_mesh(P, F, normals=N, uvs=UV, name=obj.name, material=obj.material,
+                          source=str(obj.mesh), key=key)
+    P, F, N = sphere_mesh(obj.sphere_radius, sphere_subdivisions)
+    P, N = _transform(M, P, N)
+    return build_mesh(P, F, normals=N, name=obj.name, material=obj.material, source=None,
+                      key=f"scene.objects.{index}.sphere_radius")
+
+
+def load_scene(scene, *, sphere_subdivisions: int = 4) -> list[MeshGeometry]:
+    """Every object of a SceneSection, in config order."""
+    if scene is None or not scene.objects:
+        raise BadInput("the scene has no objects", key="scene.objects")
+    return [load_object(o, i, sphere_subdivisions=sphere_subdivisions)
+            for i, o in enumerate(scene.objects)]
