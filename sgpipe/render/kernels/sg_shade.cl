@@ -9,9 +9,7 @@
 #include "ssdf.h"
 #include "cubemap.h"
 #include "microfacet.h"
-#include "shading.h"
-
-#define SHARP_LIGHT 64.0f
+#include "shading.h"   /* also SHARP_LIGHT */
 
 __kernel void sg_shade(
     const int n,
@@ -76,15 +74,8 @@ __kernel void sg_shade(
 
     float3 rd = (float3)(0.0f), rs = (float3)(0.0f);
     /* Environment, diffuse (eq 39). */
-    if (!(flags & 1)) {
-        for (int k = 0; k < n_env_sg; ++k) {
-            float4 a = env_sg[2 * k], b = env_sg[2 * k + 1];
-            SG L = sg_make(to_local(a.xyz, T, B, N), a.w, b.xyz * env_scale);
-            SG g = sg_product(cosg, L);
-            float3 fd = mf_diffuse(m, kd, op, lift(quat_rotate(qi, g.p), 0.05f));
-            rd += fd * sg_dot_visibility(g, vis_theta(&vis, g.p));
-        }
-    }
+    if (!(flags & 1))
+        rd += diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, &vis);
     /* Environment, specular (eq 41): ⊗ V^d (eq 31), rotate to world, Γ_L lookup (eq 35). */
     if (!(flags & 2)) {
         for (int j = 0; j < nl; ++j) {
