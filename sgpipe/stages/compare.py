@@ -111,7 +111,9 @@ def compare_to_reference(run, image: np.ndarray, reference, name: str) -> dict:
     """
     if isinstance(reference, (str, Path)):
         ref = read_exr(reference, channels=(1, 3, 4), key="render.compare_to")
-        label = str(reference)
+        # this stage's own output: record its final name, not the staging path
+        staged = Path(reference).parent == run.staging
+        label = Path(reference).name if staged else str(reference)
     else:
         ref, label = np.asarray(reference), "array"
     if np.shape(image)[:2] != ref.shape[:2]:

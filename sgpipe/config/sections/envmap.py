@@ -9,7 +9,40 @@ from sgpipe.config.schema import InputPath, doc
 
 @dataclass
 class EnvmapSection:
-    """Environment map and what to precompute from it."""
+    """Environment map and what to precompute from it (docs/ARTIFACTS.md, `envmap/`)."""
 
-    environment: InputPath = doc("Lat-long HDR environment map (EXR/HDR).")
-    cube_resolution: int = doc("Face resolution of the finest cubemap level.", 128, ge=4)
+    environment: InputPath = doc("Lat-long HDR environment map (EXR/HDR, 3 or 4 channels, "
+                                 "GUIDE mapping).")
+    cube_resolution: int = doc("Face resolution N of the finest cubemap (a power of two).",
+                               128, ge=4, le=4096)
+    pyramid_ratio: float = doc("Γ_L pyramid: λ ratio between consecutive levels (√2 keeps the "
+                               "λ interpolation within ~1 %).", 1.4142135623730951, gt=1.0, le=4.0)
+    pyramid_texels_per_sigma: float = doc("Γ_L pyramid: output texels per kernel σ = 1/√λ at a "
+                                          "face centre (sets λ_0 = (N/2k)² and each level's "
+                                          "resolution).", 2.0, ge=1.0, le=8.0)
+    pyramid_lambda_min: float = doc("Γ_L pyramid: levels continue down to the first λ <= this.",
+                                    0.25, gt=0.0, le=4.0)
+    pyramid_source_texels_per_sigma: float = doc(
+        "Γ_L pyramid: source MIP texels per σ used by the gather (accuracy vs speed).", 1.5,
+        ge=0.5, le=8.0)
+    pyramid_bright_factor: float = doc(
+        "Texels brighter than this × the median go to the exact 'bright' layer.", 16.0, gt=1.0)
+    mip_coverage: float = doc("Paper 000 eq 7–8: fraction a of the lobe whose solid angle sets "
+                              "the MIP level.", 0.9, gt=0.0, lt=1.0)
+    dp_scale: float = doc("Dual-paraboloid scale b (paper 000 eq 11; 1.2 as in GPU Gems 3).",
+                          1.2, ge=1.0, le=2.0)
+    dp_resolution: int | None = doc("Dual-paraboloid resolution per hemisphere (default: "
+                                    "cube_resolution).", None, ge=4, le=4096)
+    sg_lobes: int = doc("SG light fit: number of lobes (Wang09 §6: < 10).", 8, ge=1, le=9)
+    sh_lmax: int = doc("SH light projection: highest band l (4 = Green06's fifth order).", 4,
+                       ge=0, le=10)
+    irradiance_height: int = doc("Height of the exact irradiance lat-long map (width = 2×).",
+                                 32, ge=4, le=512)
+
+    def validate(self):
+        n = self.cube_resolution
+        if n & (n - 1):
+            raise ValueError(f"cube_resolution: must be a power of two, got {n}")
+        d = self.dp_resolution
+        if d is not None and d & (d - 1):
+            raise ValueError(f"dp_resolution: must be a power of two, got {d}")

@@ -1,0 +1,134 @@
+"""Environment stage targets (issue 4): full Γ_L pyramid of a 512²×6 cubemap in ≤ 1 s on 2 cores,
+peak memory below 3× the pyramid's own size; brute force of one level for comparison.
+
+Everything is measured in this run on a procedural sky + one-texel sun (no sample files needed).
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+from numba import njit, prange
+
+N = 512
+TARGET_S = 1.0
+TARGET_MEM = 3.0
+
+
+def sky_sun_cube(n: int) -> np.ndarray:
+    """Smooth sky over a darker ground plus a sun one texel wide, 2·10⁴ × the sky."""
+    from sgpipe.envmap._cube_jit import cube_texel_dirs_jit
+    d = cube_texel_dirs_jit(n)
+    y = d[..., 1]
+    t = 0.5 * (1 + np.tanh(y / 0.08))
+    base = t * (0.3 + 0.9 * np.sqrt(np.clip(y, 0, None))) + (1 - t) * (0.12 + 0.02 * d[..., 0])
+    cube = np.stack([base, base * 1.05, base * 1.3], -1)
+    sun = np.array([0.42, 0.61, -0.67]) / np.linalg.norm([0.42, 0.61, -0.67])
+    cos = d @ sun
+    cube[cos >= np.sort(cos.ravel())[-3]] += 2e4 * np.array([1.0, 0.9, 0.8])
+    return cube
+
+
+@njit(cache=True, parallel=True)
+def _brute(dirs, energy, p, lam):
+    """Exact Γ(p) = Σ_i E_i e^{λ(ω_i·p − 1)} over every source texel (float64, libm exp)."""
+    out = np.zeros((p.shape[0], 3))
+    for k in prange(p.shape[0]):
+        g0 = g1 = g2 = 0.0
+        for i in range(dirs.shape[0]):
+            w = math.exp(lam * (dirs[i, 0] * p[k, 0] + dirs[i, 1] * p[k, 1]
+                                + dirs[i, 2] * p[k, 2] - 1.0))
+            g0 += energy[i, 0] * w
+            g1 += energy[i, 1] * w
+            g2 += energy[i, 2] * w
+        out[k, 0] = g0
+        out[k, 1] = g1
+        out[k, 2] = g2
+    return out
+
+
+def _rss_mb() -> tuple[float, float]:
+    """(current RSS, peak RSS) in MB from /proc (Linux)."""
+    cur = peak = float("nan")
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                cur = float(line.split()[1]) / 1024
+            elif line.startswith("VmHWM:"):
+                peak = float(line.split()[1]) / 1024
+    return cur, peak
+
+
+def _reset_peak() -> bool:
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def main() -> int:
+    from sgpipe.core.maps import cubemap_solid_angles
+    from sgpipe.envmap._cube_jit import cube_texel_dirs_jit, face_dir, FACE_UVA
+    from sgpipe.envmap.pyramid import build_pyramid, sg_norm
+
+    from numba import get_num_threads
+    build_pyramid(sky_sun_cube(32))                      # compile outside the timing
+    _brute(np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((1, 3)), 1.0)
+    cube = sky_sun_cube(N)
+
+    can_reset = _reset_peak()
+    base, _ = _rss_mb()
+    t0 = time.perf_counter()
+    pyr = build_pyramid(cube)
+    t_pyr = time.perf_counter() - t0
+    _, peak = _rss_mb()
+    size_mb = (sum(v.nbytes for v in pyr.values) + sum(v.nbytes for v in pyr.slopes)) / 2**20
+    mem_ratio = (peak - base) / size_mb if can_reset else float("nan")
+    t1 = time.perf_counter()
+    build_pyramid(cube)
+    t_pyr = min(t_pyr, time.perf_counter() - t1)
+
+    # brute force of level 0 (the largest): exact Γ at a sample of its output texels, extrapolated
+    dirs = cube_texel_dirs_jit(N).reshape(-1, 3)
+    energy = (cube * cubemap_solid_angles(N)[..., None]).reshape(-1, 3)
+    n0 = int(pyr.face_res[0])
+    m0 = n0 + 4
+    rng = np.random.default_rng(0)
+    pick = rng.integers(0, [6, m0, m0], size=(400, 3))
+    p = np.array([face_dir(FACE_UVA, f, (j - 1.5) / n0, (i - 1.5) / n0) for f, i, j in pick])
+    t0 = time.perf_counter()
+    _brute(dirs, energy, p, float(pyr.lambdas[0]))
+    t_bf_level0 = (time.perf_counter() - t0) / len(p) * 6 * m0 * m0
+
+    # accuracy spot check at N = 512 (lookup vs brute force), on and between levels
+    q = rng.normal(size=(120, 3))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    errs = {}
+    for lam in (1.0, 60.0, 700.0, float(pyr.lambdas[0])):
+        ref = _brute(dirs, energy, q, lam)
+        got = pyr.lookup(q, lam)
+        errs[lam] = float(np.abs(got / ref - 1).max())
+
+    print(f"threads: {get_num_threads()} (cores available: {len(os.sched_getaffinity(0))})")
+    print(f"Γ_L pyramid, {N}²×6 cubemap: {len(pyr.lambdas)} levels (λ {pyr.lambdas[0]:.0f} … "
+          f"{pyr.lambdas[-1]:.2f}, ratio √2, V + slope), {size_mb:.0f} MB")
+    print(f"  pyramid build          : {t_pyr:8.2f} s   (target ≤ {TARGET_S:.1f} s)")
+    print(f"  brute force, level 0   : {t_bf_level0:8.1f} s   (extrapolated from {len(p)} texels "
+          f"of {6 * m0 * m0}; exact sum over all {len(dirs)} source texels)")
+    print(f"  ratio pyramid / brute  : {t_pyr / t_bf_level0:8.2e}   (whole pyramid vs one level)")
+    print(f"  peak memory growth     : {peak - base:8.0f} MB = {mem_ratio:.2f} × pyramid "
+          f"(target < {TARGET_MEM:.0f}×)")
+    print(f"  max rel. error vs brute force ({len(q)} random directions): "
+          + ", ".join(f"λ={k:g}: {v:.4f}" for k, v in errs.items()))
+    ok = t_pyr <= TARGET_S and mem_ratio < TARGET_MEM
+    if t_pyr > TARGET_S:
+        print(f"  MISSED: pyramid build {t_pyr:.2f} s > {TARGET_S} s")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

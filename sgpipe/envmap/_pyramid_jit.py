@@ -1,0 +1,393 @@
+"""Compiled cores of the Γ_L pyramid (Wang09 eq 34–35): moment MIP of the source point masses
+and the SG gather. Public wrappers live in `pyramid.py`.
+
+Source texels are point masses (energy E = L·Ω, unit centroid c, mean squared spread s² of the
+merged masses about c) kept
+in a structure-of-arrays row block `src[f, i, k, j]` (face f, row i, component k, column j) so
+the inner loop over columns is contiguous and vectorises.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from sgpipe.envmap._cube_jit import face_dir
+
+# component slots of a source row block
+CX, CY, CZ, E0, E1, E2, S2 = range(7)
+NCOMP = 7
+_CORNER_COS = 0.5773502691896258   # cos 54.7356°: widest angle between a face point and its axis
+_EXP_MIN = -60.0
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def fast_exp(x):
+    """e^x for x in [−60, 0] (clamped): degree-10 Taylor of e^{x/64}, squared six times.
+    Relative error < 2e-6; branch-free so the gather loop vectorises."""
+    x = min(max(x, _EXP_MIN), 0.0) * 0.015625
+    y = 1.0 + x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (
+        1.0 / 120.0 + x * (1.0 / 720.0 + x * (1.0 / 5040.0 + x * (
+            1.0 / 40320.0 + x * (1.0 / 362880.0 + x * (1.0 / 3628800.0))))))))))
+    y = y * y
+    y = y * y
+    y = y * y
+    y = y * y
+    y = y * y
+    return y * y
+
+
+@njit(cache=True, parallel=True)
+def moment_downsample(src):
+    """2×2 merge: summed energies, energy-weighted (channel-sum) unit centroid and mean squared
+    spread about it (children's spreads + their offsets), i.e. a moment-preserving MIP."""
+    n = src.shape[1] // 2
+    out = np.zeros((6, n, NCOMP, n), np.float32)
+    for job in prange(6 * n):
+        f = job // n
+        i = job % n
+        for j in range(n):
+            wt = 0.0
+            c0 = c1 = c2 = 0.0
+            g0 = g1 = g2 = 0.0
+            for a in range(2):
+                for b in range(2):
+                    r = src[f, 2 * i + a]
+                    jj = 2 * j + b
+                    w = abs(r[E0, jj]) + abs(r[E1, jj]) + abs(r[E2, jj])
+                    wt += w
+                    c0 += w * r[CX, jj]
+                    c1 += w * r[CY, jj]
+                    c2 += w * r[CZ, jj]
+                    g0 += r[CX, jj]
+                    g1 += r[CY, jj]
+                    g2 += r[CZ, jj]
+                    out[f, i, E0, j] += r[E0, jj]
+                    out[f, i, E1, j] += r[E1, jj]
+                    out[f, i, E2, j] += r[E2, jj]
+            if wt <= 0.0:
+                c0, c1, c2 = g0, g1, g2
+            nn = np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+            c0 /= nn
+            c1 /= nn
+            c2 /= nn
+            out[f, i, CX, j] = c0
+            out[f, i, CY, j] = c1
+            out[f, i, CZ, j] = c2
+            s2 = 0.0
+            for a in range(2):
+                for b in range(2):
+                    r = src[f, 2 * i + a]
+                    jj = 2 * j + b
+                    if wt > 0.0:
+                        w = (abs(r[E0, jj]) + abs(r[E1, jj]) + abs(r[E2, jj])) / wt
+                    else:
+                        w = 0.25
+                    dx = r[CX, jj] - c0
+                    dy = r[CY, jj] - c1
+                    dz = r[CZ, jj] - c2
+                    s2 += w * (r[S2, jj] + dx * dx + dy * dy + dz * dz)
+            out[f, i, S2, j] = s2
+    return out
+
+
+@njit(cache=True)
+def row_extents(src):
+    """Per (face, row): first and last column holding energy (−1, −2 when the row is empty)."""
+    n = src.shape[1]
+    ext = np.empty((6, n, 2), np.int64)
+    for f in range(6):
+        for i in range(n):
+            lo = -1
+            hi = -2
+            for j in range(n):
+                if src[f, i, E0, j] != 0.0 or src[f, i, E1, j] != 0.0 or src[f, i, E2, j] != 0.0:
+                    if lo < 0:
+                        lo = j
+                    hi = j
+            ext[f, i, 0] = lo
+            ext[f, i, 1] = hi
+    return ext
+
+
+@njit(cache=True)
+def _tile_rows(uva, g, px, py, pz, cos_r, sin_r, n_src):
+    """Row range [i0, i1] of face g that a cap (p, R) can meet (i0 > i1: none).
+
+    The cap boundary is sampled on a circumscribed 16-gon and projected gnomonically; points
+    at or behind the face plane are pushed to 'infinity' along their tangential direction.
+    """
+    ax, ay, az = uva[g, 2, 0], uva[g, 2, 1], uva[g, 2, 2]
+    ca = px * ax + py * ay + pz * az
+    if sin_r < 0.95:
+        cos_lim = _CORNER_COS * cos_r - np.sqrt(1.0 - _CORNER_COS ** 2) * sin_r
+        if ca < cos_lim:
+            return 1, 0
+    if abs(px) < 0.9:
+        hx, hy, hz = 1.0, 0.0, 0.0
+    else:
+        hx, hy, hz = 0.0, 1.0, 0.0
+    e1x = hy * pz - hz * py
+    e1y = hz * px - hx * pz
+    e1z = hx * py - hy * px
+    nn = np.sqrt(e1x * e1x + e1y * e1y + e1z * e1z)
+    e1x /= nn
+    e1y /= nn
+    e1z /= nn
+    e2x = py * e1z - pz * e1y
+    e2y = pz * e1x - px * e1z
+    e2z = px * e1y - py * e1x
+    K = 16
+    grow = sin_r / np.cos(np.pi / K)
+    smin = tmin = 1e30
+    smax = tmax = -1e30
+    for k in range(K + 1):
+        if k == K:
+            vx, vy, vz = px, py, pz
+        else:
+            ang = 2.0 * np.pi * k / K
+            ca_, sa_ = np.cos(ang) * grow, np.sin(ang) * grow
+            vx = px * cos_r + ca_ * e1x + sa_ * e2x
+            vy = py * cos_r + ca_ * e1y + sa_ * e2y
+            vz = pz * cos_r + ca_ * e1z + sa_ * e2z
+        ma = vx * ax + vy * ay + vz * az
+        a = vx * uva[g, 0, 0] + vy * uva[g, 0, 1] + vz * uva[g, 0, 2]
+        b = vx * uva[g, 1, 0] + vy * uva[g, 1, 1] + vz * uva[g, 1, 2]
+        if ma > 1e-3 * (abs(a) + abs(b)):
+            sc = a / ma
+            tc = b / ma
+        else:
+            sc = 1e3 * a
+            tc = 1e3 * b
+        smin = min(smin, sc)
+        smax = max(smax, sc)
+        tmin = min(tmin, tc)
+        tmax = max(tmax, tc)
+    if smax < -1.0 or smin > 1.0 or tmax < -1.0 or tmin > 1.0:
+        return 1, 0
+    i0 = int(np.floor((max(tmin, -1.0) + 1.0) * 0.5 * n_src))
+    i1 = int(np.floor((min(tmax, 1.0) + 1.0) * 0.5 * n_src))
+    return max(0, i0), min(n_src - 1, i1)
+
+
+@njit(cache=True)
+def _row_interval(uva, g, px, py, pz, tc, k, n_src):
+    """Columns [j0, j1] of the row at face coordinate tc whose centres satisfy c·p >= k
+    (solves (a + b·sc)² = k²(q + sc²) on the row's great circle; k > 0)."""
+    a = (px * uva[g, 2, 0] + py * uva[g, 2, 1] + pz * uva[g, 2, 2]
+         + tc * (px * uva[g, 1, 0] + py * uva[g, 1, 1] + pz * uva[g, 1, 2]))
+    b = px * uva[g, 0, 0] + py * uva[g, 0, 1] + pz * uva[g, 0, 2]
+    q = 1.0 + tc * tc
+    k2 = k * k
+    A = b * b - k2
+    B = a * b
+    Cc = a * a - k2 * q
+    # A < 0 (the usual small-cap case): the arc is between the roots of A s² + 2 B s + Cc = 0
+    # (if the midpoint is on the cap's side, a + b s > 0). Otherwise take the whole row: the
+    # per-tap test in `_accumulate` keeps the sum exact.
+    if A > -1e-9:
+        return 0, n_src - 1
+    disc = B * B - A * Cc
+    if disc < 0.0:
+        return 1, 0
+    sq = np.sqrt(disc)
+    r1 = (-B - sq) / A
+    r2 = (-B + sq) / A
+    lo = min(r1, r2)
+    hi = max(r1, r2)
+    if a + b * 0.5 * (lo + hi) < 0.0:
+        return 1, 0
+    if hi < -1.0 or lo > 1.0:
+        return 1, 0
+    j0 = int(np.floor((max(lo, -1.0) + 1.0) * 0.5 * n_src))
+    j1 = int(np.floor((min(hi, 1.0) + 1.0) * 0.5 * n_src))
+    return max(0, j0), min(n_src - 1, j1)
+
+
+_F0 = np.float32(0.0)
+_F1 = np.float32(1.0)
+_FH = np.float32(0.5)
+_FMIN = np.float32(_EXP_MIN)
+_F64TH = np.float32(0.015625)
+_FC = tuple(np.float32(1.0 / math.factorial(k)) for k in range(11))
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def fast_exp32(x):
+    """float32 twin of `fast_exp` (8 lanes per AVX2 register)."""
+    x = min(max(x, _FMIN), _F0) * _F64TH
+    y = _FC[0] + x * (_FC[1] + x * (_FC[2] + x * (_FC[3] + x * (_FC[4] + x * (
+        _FC[5] + x * (_FC[6] + x * (_FC[7] + x * (_FC[8] + x * (_FC[9] + x * _FC[10])))))))))
+    y = y * y
+    y = y * y
+    y = y * y
+    y = y * y
+    y = y * y
+    return y * y
+
+
+@njit(cache=True, fastmath=True)
+def _accumulate_row(r, j0, j1, P, nq, lam, cut, acc):
+    """acc[:, q] += Σ_{j0..j1} over one source row block, for every output q of a tile:
+    Γ (acc[0:3]) and ∂Γ/∂λ (acc[3:6]). float32 throughout; the inner loop runs over the tile's
+    outputs (SoA P). c·p − 1 = −½|c − p|² avoids the cancellation of a float32 dot product."""
+    lam = np.float32(lam)
+    cut = np.float32(cut)
+    hl = _FH * lam
+    for j in range(j0, j1 + 1):
+        cx = r[CX, j]
+        cy = r[CY, j]
+        cz = r[CZ, j]
+        e0 = r[E0, j]
+        e1 = r[E1, j]
+        e2 = r[E2, j]
+        hs = hl * r[S2, j]
+        s2h = _FH * r[S2, j]
+        for q in range(nq):
+            dx = cx - P[0, q]
+            dy = cy - P[1, q]
+            dz = cz - P[2, q]
+            dd = -_FH * (dx * dx + dy * dy + dz * dz)
+            d = dd + _F1
+            sn = _F1 - d * d
+            # E[e^{λ(v·p−1)}] to second order in an isotropic spread s² of v about c:
+            # e^{λ(c·p−1)} · exp(½λs² (½λ(1 − (c·p)²) − c·p))
+            w = fast_exp32(lam * dd + hs * (hl * sn - d)) * (dd >= cut)
+            # ∂/∂λ of that exponent: (c·p − 1) + ½s²(λ(1 − (c·p)²) − c·p)
+            wd = w * (dd + s2h * (lam * sn - d))
+            acc[0, q] += e0 * w
+            acc[1, q] += e1 * w
+            acc[2, q] += e2 * w
+            acc[3, q] += e0 * wd
+            acc[4, q] += e1 * wd
+            acc[5, q] += e2 * wd
+
+
+@njit(cache=True, parallel=True)
+def sg_gather(src, ext, uva, n_out, border, lam, cos_cut, tile, out):
+    """Add Γ(p) = Σ_i E_i e^{λ(c_i·p − 1)} and ∂Γ/∂λ to out[f, i, j, 0:6] at the bordered texel
+    centres of a (6, n_out + 2·border, …) cubemap, over the point masses with c_i·p >= cos_cut."""
+    n_src = src.shape[1]
+    m = n_out + 2 * border
+    nt = (m + tile - 1) // tile
+    h_src = 2.0 / n_src
+    full = cos_cut <= -1.0 + 1e-12
+    for job in prange(6 * nt * nt):
+        f = job // (nt * nt)
+        ti = (job // nt) % nt
+        tj = job % nt
+        i_lo = ti * tile
+        i_hi = min(m, i_lo + tile)
+        j_lo = tj * tile
+        j_hi = min(m, j_lo + tile)
+        cx, cy, cz = face_dir(uva, f, (0.5 * (j_lo + j_hi) - border) / n_out,
+                              (0.5 * (i_lo + i_hi) - border) / n_out)
+        cos_t = 1.0
+        for a in (i_lo, i_hi - 1):
+            for b in (j_lo, j_hi - 1):
+                x, y, z = face_dir(uva, f, (b - border + 0.5) / n_out, (a - border + 0.5) / n_out)
+                cos_t = min(cos_t, x * cx + y * cy + z * cz)
+        # cap of every output, enlarged by a source texel half-diagonal (a centroid lies in its
+        # texel), then by the tile radius: the rows/columns scanned for the whole tile
+        r_out = np.arccos(max(-1.0, min(1.0, cos_cut))) + 0.75 * h_src
+        r_tile = r_out + np.arccos(max(-1.0, min(1.0, cos_t)))
+        wide = full or r_tile >= 1.2
+        k_tile = np.cos(r_tile)
+        s_tile = np.sin(r_tile)
+        nq = (i_hi - i_lo) * (j_hi - j_lo)
+        P = np.empty((3, nq), np.float32)
+        for a in range(i_lo, i_hi):
+            for b in range(j_lo, j_hi):
+                x, y, z = face_dir(uva, f, (b - border + 0.5) / n_out, (a - border + 0.5) / n_out)
+                q = (a - i_lo) * (j_hi - j_lo) + (b - j_lo)
+                P[0, q] = x
+                P[1, q] = y
+                P[2, q] = z
+        acc = np.zeros((6, nq), np.float32)
+        cut = cos_cut - 1.0
+        for g in range(6):
+            if wide:
+                gi0, gi1 = 0, n_src - 1
+            else:
+                gi0, gi1 = _tile_rows(uva, g, cx, cy, cz, k_tile, s_tile, n_src)
+            for i in range(gi0, gi1 + 1):
+                e_lo = ext[g, i, 0]
+                if e_lo < 0:
+                    continue
+                if wide:
+                    j0, j1 = 0, n_src - 1
+                else:
+                    j0, j1 = _row_interval(uva, g, cx, cy, cz, (i + 0.5) * h_src - 1.0,
+                                           k_tile, n_src)
+                j0 = max(j0, e_lo)
+                j1 = min(j1, ext[g, i, 1])
+                if j0 > j1:
+                    continue
+                _accumulate_row(src[g, i], j0, j1, P, nq, lam, cut, acc)
+        for a in range(i_lo, i_hi):
+            for b in range(j_lo, j_hi):
+                q = (a - i_lo) * (j_hi - j_lo) + (b - j_lo)
+                for c in range(6):
+                    out[f, a, b, c] += acc[c, q]
+    return out
+
+
+_Z = math.sqrt(3.0) - 2.0          # pole of the cubic B-spline prefilter
+
+
+@njit(cache=True, inline="always")
+def _prefilter_line(c, n):
+    """In-place cubic B-spline interpolation prefilter of c[0:n] (mirror boundary, Unser)."""
+    z = _Z
+    for k in range(n):
+        c[k] *= 6.0
+    horizon = min(n, 30)                # z^30 ≈ 7e-18
+    zk = z
+    s = c[0]
+    for k in range(1, horizon):
+        s += zk * c[k]
+        zk *= z
+    c[0] = s
+    for k in range(1, n):
+        c[k] += z * c[k - 1]
+    c[n - 1] = (z / (z * z - 1.0)) * (c[n - 1] + z * c[n - 2])
+    for k in range(n - 2, -1, -1):
+        c[k] = z * (c[k + 1] - c[k])
+
+
+@njit(cache=True, parallel=True)
+def finish_level(acc, lam, norm, extra, values, slopes):
+    """From the gathered Γ, ∂Γ/∂λ (6, m, m, 6): V = Γ/S(λ), m = λ Γ'/Γ, then cubic B-spline
+    coefficients per face and channel (rows, then columns), cropped by `extra` into the
+    (6·w, w, 3) float32 images `values` and `slopes` (w = m − 2·extra)."""
+    m = acc.shape[1]
+    w = m - 2 * extra
+    for job in prange(6 * 6):
+        f = job // 6
+        c = job % 6
+        buf = np.empty((m, m))
+        for i in range(m):
+            for j in range(m):
+                g = acc[f, i, j, c % 3]
+                if c < 3:
+                    buf[i, j] = g / norm
+                else:
+                    buf[i, j] = lam * acc[f, i, j, c] / g if g > 0.0 else 0.0
+        line = np.empty(m)
+        for i in range(m):
+            for j in range(m):
+                line[j] = buf[i, j]
+            _prefilter_line(line, m)
+            for j in range(m):
+                buf[i, j] = line[j]
+        for j in range(extra, m - extra):
+            for i in range(m):
+                line[i] = buf[i, j]
+            _prefilter_line(line, m)
+            for i in range(extra, m - extra):
+                if c < 3:
+                    values[f * w + i - extra, j - extra, c] = line[i]
+                else:
+                    slopes[f * w + i - extra, j - extra, c - 3] = line[i]
+

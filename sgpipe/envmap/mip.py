@@ -1,0 +1,158 @@
+"""Paper 000's lobe-sized MIP lookup (eq 6–11) and the filtered-importance-sampling lod of
+Colbert & Křivánek (GPU Gems 3 ch 20), on box-filtered cubemap and dual-paraboloid MIP chains."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sgpipe.core.maps import (cubemap_dir, cubemap_solid_angles, dir_to_cubemap,
+                              dual_paraboloid_distortion, dual_paraboloid_solid_angles)
+from sgpipe.envmap._cube_jit import sample_dirs_bordered
+from sgpipe.envmap.maps import faces_to_image, image_to_dual_paraboloid, sample_dual_paraboloid
+
+
+def bordered_box_level(faces: np.ndarray) -> np.ndarray:
+    """(6, n, n, C) → (6·(n+2), n+2, C): a 1-texel border per face holding the neighbouring
+    face bilinearly sampled (clamped inside that face) at the border texel's extended-plane
+    direction, so per-face bilinear fetches agree across seams to second order."""
+    faces = np.asarray(faces)
+    n = faces.shape[1]
+    m = n + 2
+    out = np.zeros((6, m, m, faces.shape[3]), faces.dtype)
+    out[:, 1:-1, 1:-1] = faces
+    ring = np.zeros((m, m), bool)
+    ring[0, :] = ring[-1, :] = ring[:, 0] = ring[:, -1] = True
+    ii, jj = np.nonzero(ring)
+    for f in range(6):
+        d = cubemap_dir(f, (jj - 0.5) / n, (ii - 0.5) / n)
+        g, s, t = dir_to_cubemap(d)
+        u = np.clip(s * n - 0.5, 0, n - 1)
+        v = np.clip(t * n - 0.5, 0, n - 1)
+        j0 = np.minimum(np.floor(u).astype(int), max(n - 2, 0))
+        i0 = np.minimum(np.floor(v).astype(int), max(n - 2, 0))
+        j1 = np.minimum(j0 + 1, n - 1)
+        i1 = np.minimum(i0 + 1, n - 1)
+        fu = (u - j0)[:, None]
+        fv = (v - i0)[:, None]
+        out[f, ii, jj] = ((1 - fv) * ((1 - fu) * faces[g, i0, j0] + fu * faces[g, i0, j1])
+                          + fv * ((1 - fu) * faces[g, i1, j0] + fu * faces[g, i1, j1]))
+    return faces_to_image(out)
+
+
+def cube_mip_chain(faces: np.ndarray) -> list[np.ndarray]:
+    """Box MIP chain (6, n, n, C) for n = N, N/2, …, 1: each parent is the solid-angle-weighted
+    mean of its 2×2 children (so ∫L dω is preserved at every level)."""
+    faces = np.asarray(faces, np.float64)
+    chain = [faces]
+    om = cubemap_solid_angles(faces.shape[1])
+    while chain[-1].shape[1] > 1 and chain[-1].shape[1] % 2 == 0:
+        f = chain[-1]
+        n = f.shape[1] // 2
+        e = (f * om[..., None]).reshape(6, n, 2, n, 2, -1).sum(axis=(2, 4))
+        om = om.reshape(6, n, 2, n, 2).sum(axis=(2, 4))
+        chain.append(e / om[..., None])
+    return chain
+
+
+def dp_mip_chain(dp: np.ndarray, b: float) -> list[np.ndarray]:
+    """Box MIP chain of a dual-paraboloid map (2, n, n, C), solid-angle weighted."""
+    dp = np.asarray(dp, np.float64)
+    chain = [dp]
+    om = dual_paraboloid_solid_angles(dp.shape[1], b)
+    while chain[-1].shape[1] > 1 and chain[-1].shape[1] % 2 == 0:
+        f = chain[-1]
+        n = f.shape[1] // 2
+        e = (f * om[..., None]).reshape(2, n, 2, n, 2, -1).sum(axis=(2, 4))
+        om = om.reshape(2, n, 2, n, 2).sum(axis=(2, 4))
+        chain.append(e / om[..., None])
+    return chain
+
+
+def lobe_solid_angle(kappa, a: float = 0.9):
+    """Paper 000 eq 8: Ω_s = −2π ln(1 − a)/κ, the solid angle holding a fraction a of the lobe."""
+    return -2.0 * np.pi * math.log(1.0 - a) / np.asarray(kappa, float)
+
+
+def cube_distortion(d):
+    """Cubemap analogue of paper 000's d(i): exact texel solid angle = D(d)/N² with
+    D(d) = 4·max(|d_x|, |d_y|, |d_z|)³ (gnomonic face: dω = dA·cos³ of the angle to the axis)."""
+    d = np.asarray(d, float)
+    return 4.0 * np.max(np.abs(d), axis=-1) ** 3
+
+
+@dataclass
+class MipChain:
+    """A box-filtered MIP chain with paper 000's lod rule (eq 10) and trilinear lookup.
+
+    kind "cube": levels are bordered cube strips (6·(n+2), n+2, 3); kind "dp": (n, 2n, 3).
+    """
+
+    kind: str
+    levels: list[np.ndarray]
+    b: float = 1.0
+
+    @property
+    def res(self) -> list[int]:
+        return [lv.shape[1] - 2 if self.kind == "cube" else lv.shape[0] for lv in self.levels]
+
+    @property
+    def n_finest(self) -> int:
+        return self.res[0]
+
+    def texel_solid_angle(self, d) -> np.ndarray:
+        """Eq 9: Ω_p = D(d)/(w·h), w = h = finest face/paraboloid resolution."""
+        dist = cube_distortion(d) if self.kind == "cube" else dual_paraboloid_distortion(d, self.b)
+        return dist / float(self.n_finest) ** 2
+
+    def lobe_lod(self, d, kappa, a: float = 0.9) -> np.ndarray:
+        """Eq 10: lod = ½ log2(Ω_s/Ω_p) for a lobe of sharpness κ at direction d (clamped)."""
+        lod = 0.5 * np.log2(lobe_solid_angle(kappa, a) / self.texel_solid_angle(d))
+        return np.clip(lod, 0.0, len(self.levels) - 1)
+
+    def fis_lod(self, d, pdf, n_samples: int) -> np.ndarray:
+        """Colbert–Křivánek: Ω_s = 1/(N·pdf), lod = max(½ log2(Ω_s/Ω_p) + 1, 0) (clamped)."""
+        om_s = 1.0 / (float(n_samples) * np.maximum(np.asarray(pdf, float), 1e-300))
+        lod = 0.5 * np.log2(om_s / self.texel_solid_angle(d)) + 1.0
+        return np.clip(lod, 0.0, len(self.levels) - 1)
+
+    def level_lookup(self, level: int, d) -> np.ndarray:
+        d = np.ascontiguousarray(np.asarray(d, float).reshape(-1, 3))
+        lv = self.levels[level]
+        if self.kind == "cube":
+            return sample_dirs_bordered(lv, lv.shape[1] - 2, 1, d, False)
+        return sample_dual_paraboloid(image_to_dual_paraboloid(lv), d, self.b)
+
+    def lookup(self, d, lod) -> np.ndarray:
+        """Trilinear: bilinear in the two MIP levels around `lod`, linear between them."""
+        d = np.asarray(d, float)
+        shape = d.shape[:-1]
+        D = d.reshape(-1, 3)
+        lod = np.broadcast_to(np.clip(np.asarray(lod, float), 0, len(self.levels) - 1),
+                              shape).reshape(-1)
+        lo = np.floor(lod).astype(int)
+        hi = np.minimum(lo + 1, len(self.levels) - 1)
+        t = (lod - lo)[:, None]
+        out = np.zeros((len(D), 3))
+        for level in np.unique(np.concatenate([lo, hi])):
+            wl = np.where(lo == level, 1.0 - t[:, 0], 0.0) + np.where(hi == level, t[:, 0], 0.0)
+            sel = wl > 0
+            if sel.any():
+                out[sel] += wl[sel, None] * self.level_lookup(level, D[sel])
+        return out.reshape(shape + (3,))
+
+    def lobe_lookup(self, d, kappa, a: float = 0.9) -> np.ndarray:
+        """Paper 000 §V: radiance averaged over the lobe's footprint (the MIP texel at its lod)."""
+        return self.lookup(d, self.lobe_lod(d, kappa, a))
+
+
+def build_cube_chain(faces: np.ndarray) -> MipChain:
+    return MipChain("cube", [bordered_box_level(f).astype(np.float32)
+                             for f in cube_mip_chain(faces)])
+
+
+def build_dp_chain(dp: np.ndarray, b: float) -> MipChain:
+    from sgpipe.envmap.maps import dual_paraboloid_to_image
+    return MipChain("dp", [dual_paraboloid_to_image(f).astype(np.float32)
+                           for f in dp_mip_chain(dp, b)], b=b)

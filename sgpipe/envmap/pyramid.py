@@ -1,0 +1,258 @@
+"""Γ_L pyramid (Wang09 eq 34–35): the environment convolved with normalized SG kernels.
+
+Level ℓ stores V_ℓ(p) = Γ_L(p, λ_ℓ)/S(λ_ℓ) with Γ_L(p, λ) = ∫ e^{λ(ω·p−1)} L(ω) dω and
+S(λ) = 2π(1 − e^{−2λ})/λ, plus the log-slope m_ℓ(p) = ∂ln Γ_L/∂ln λ used to interpolate in λ
+(cubic Hermite of ln Γ_L in ln λ). Both are stored as uniform cubic B-spline coefficients on a
+bordered cubemap (see docs/ARTIFACTS.md, `envmap/`).
+
+Build: the cubemap texels become point masses (E = L·Ω at the texel centre); a moment-preserving
+MIP keeps, per merged texel, the energy, its energy-weighted centroid and spread. Each level is a
+direct gather from the coarsest MIP level that still samples its kernel finely enough, split in
+a "dim" layer (bounded contrast: short kernel tails) and a sparse "bright" layer (sun, lamps:
+finer source and long tails), so a tiny bright source keeps its exact position.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sgpipe.core.maps import cubemap_solid_angles, cubemap_texel_dirs
+from sgpipe.envmap import _pyramid_jit as _pj
+from sgpipe.envmap._cube_jit import FACE_UVA, cube_texel_dirs_jit, sample_bordered
+from sgpipe.envmap.maps import faces_to_image
+
+BORDER = 2          # stored border (cubic B-spline taps −1..+2 never leave the bordered face)
+_EXTRA = 5          # extra computed border consumed by the B-spline prefilter (0.268^5 ≈ 1e-3)
+
+
+def sg_norm(lam):
+    """S(λ) = ∫_{S²} e^{λ(ω·p−1)} dω = 2π(1 − e^{−2λ})/λ (→ 4π as λ → 0)."""
+    lam = np.asarray(lam, float)
+    small = lam < 1e-8
+    ls = np.where(small, 1.0, lam)
+    return np.where(small, 4.0 * np.pi * (1.0 - lam), -2.0 * np.pi * np.expm1(-2.0 * ls) / ls)
+
+
+def mean_resultant(lam):
+    """A(λ) = coth λ − 1/λ (λ/3 for small λ): the l = 1 response of the normalized SG kernel."""
+    lam = np.asarray(lam, float)
+    small = lam < 1e-3
+    ls = np.where(small, 1.0, lam)
+    return np.where(small, lam / 3.0, 1.0 / np.tanh(ls) - 1.0 / ls)
+
+
+@dataclass
+class PyramidSettings:
+    """Knobs of the pyramid build (the config section mirrors these)."""
+
+    ratio: float = math.sqrt(2.0)        # λ_ℓ / λ_ℓ₊₁
+    texels_per_sigma: float = 2.0        # output texel pitch at a face centre = σ / this
+    lambda_min: float = 0.25             # levels continue down to the first λ <= this
+    min_res: int = 4                     # smallest face resolution of a level
+    src_texels_per_sigma: float = 1.5    # dim layer: coarsest source MIP with σ/h >= this
+    bright_src_texels_per_sigma: float = 1.7
+    bright_factor: float = 16.0          # texels brighter than this × median go to the bright layer
+    tail_dim: float = 4.5                # kernel cut at e^{−T²/2} for the dim layer
+    tail_bright: float = 0.0             # 0 = from the bright layer's dynamic range (4.5 … 7)
+    tile: int = 4
+
+
+def pyramid_levels(n_finest: int, s: PyramidSettings) -> tuple[np.ndarray, np.ndarray]:
+    """λ_ℓ (decreasing, uniformly log-spaced) and face resolution per level.
+
+    λ_0 is the sharpest kernel the finest texels sample at `texels_per_sigma` per σ
+    (σ = 1/√λ, face-centre pitch 2/N): λ_0 = (N/(2k))²; n_ℓ = clamp(⌈2k√λ_ℓ⌉, min_res, N).
+    """
+    k = s.texels_per_sigma
+    lam0 = (n_finest / (2.0 * k)) ** 2
+    lams = [lam0]
+    while lams[-1] > s.lambda_min:
+        lams.append(lams[-1] / s.ratio)
+    lams = np.array(lams)
+    res = np.clip(np.ceil(2.0 * k * np.sqrt(lams) - 1e-9), s.min_res, n_finest).astype(np.int64)
+    return lams, res
+
+
+def _point_masses(dirs: np.ndarray, energy: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Finest source row blocks (6, N, NCOMP, N) float32: texel centres, energies L·Ω (masked),
+    zero spread."""
+    n = dirs.shape[1]
+    src = np.zeros((6, n, _pj.NCOMP, n), np.float32)
+    src[:, :, _pj.CX:_pj.CZ + 1, :] = np.moveaxis(dirs, 3, 2)
+    src[:, :, _pj.E0:_pj.E2 + 1, :] = np.moveaxis(energy * mask[..., None], 3, 2)
+    return src
+
+
+class _MomentMip:
+    """Moment MIP of one layer, built lazily from the finest level (levels kept once built)."""
+
+    def __init__(self, src0: np.ndarray):
+        self.n0 = src0.shape[1]
+        self.levels = [src0]
+        self.exts = [_pj.row_extents(src0)]
+
+    def level(self, j: int):
+        while len(self.levels) <= j:
+            nxt = _pj.moment_downsample(self.levels[-1])
+            self.levels.append(nxt)
+            self.exts.append(_pj.row_extents(nxt))
+        return self.levels[j], self.exts[j]
+
+    def pick(self, sigma: float, k_src: float, min_res: int = 8) -> int:
+        """Coarsest power-of-two level whose resolution is at least `target_res`."""
+        n_t = self.target_res(sigma, k_src, min_res)
+        n = self.n0
+        j = 0
+        while n % 2 == 0 and n // 2 >= n_t:
+            n //= 2
+            j += 1
+        return j
+
+    def target_res(self, sigma: float, k_src: float, min_res: int = 8) -> int:
+        """Face resolution whose centre pitch 2/n samples σ at k_src per σ (capped at N)."""
+        return int(min(self.n0, max(min_res, math.ceil(2.0 * k_src / sigma - 1e-9))))
+
+    def source(self, sigma: float, k_src: float):
+        """(row blocks, row extents) of the coarsest MIP level sampling σ at >= k_src per σ.
+        (Re-binning to the exact resolution was tried: the irregular bins cost accuracy.)"""
+        return self.level(self.pick(sigma, k_src))
+
+    def release_below(self, j: int) -> None:
+        """Drop levels finer than j (built first, so coarser levels stay reachable)."""
+        self.level(j)
+        for i in range(j):
+            self.levels[i] = None
+            self.exts[i] = None
+
+
+def _bright_mask(cube: np.ndarray, factor: float) -> tuple[np.ndarray, float]:
+    lum = cube.sum(axis=-1)
+    mean = float(lum.mean())
+    tau = factor * max(float(np.median(lum)), 1e-3 * mean, 1e-30)
+    return lum > tau, tau
+
+
+@dataclass
+class Pyramid:
+    """A built or loaded Γ_L pyramid with the reference lookup of docs/ARTIFACTS.md."""
+
+    lambdas: np.ndarray                  # (L,) decreasing
+    face_res: np.ndarray                 # (L,)
+    values: list[np.ndarray]             # per level (6·(n+4), n+4, 3) B-spline coeffs of V
+    slopes: list[np.ndarray]             # per level (6·(n+4), n+4, 3) B-spline coeffs of m
+    mean: np.ndarray                     # (3,) mean radiance (the λ → 0 limit)
+    ratio: float
+    info: dict = field(default_factory=dict)
+
+    @property
+    def border(self) -> int:
+        return BORDER
+
+    def level_values(self, level: int, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(V_ℓ(p), m_ℓ(p)) at unit directions (M, 3) by cubic B-spline lookup."""
+        d = np.ascontiguousarray(np.asarray(dirs, float).reshape(-1, 3))
+        n = int(self.face_res[level])
+        v = sample_bordered(self.values[level], n, BORDER, d, True, np.empty((len(d), 3)))
+        m = sample_bordered(self.slopes[level], n, BORDER, d, True, np.empty((len(d), 3)))
+        return v, m
+
+    def lookup(self, p, lam, *, normalized: bool = False) -> np.ndarray:
+        """⟨G(·; p, λ, 1), L⟩ = Γ_L(p, λ) (Wang09 eq 35) for unit p (..., 3) and λ (broadcast);
+        normalized=True returns V = Γ_L/S(λ) (a weighted mean radiance). Returns (..., 3)."""
+        p = np.asarray(p, float)
+        lam = np.asarray(lam, float)
+        shape = np.broadcast_shapes(p.shape[:-1], lam.shape)
+        P = np.broadcast_to(p, shape + (3,)).reshape(-1, 3)
+        lamv = np.broadcast_to(lam, shape).reshape(-1)
+        out = np.empty((len(P), 3))
+        lam0 = self.lambdas[0]
+        L = len(self.lambdas)
+        lnr = math.log(self.ratio)
+        x = np.log(lam0 / np.maximum(lamv, 1e-300)) / lnr
+        sharp = x < 0
+        broad = x > L - 1
+        mid = ~(sharp | broad)
+        if sharp.any():   # sharper than the finest texels resolve: clamp to level 0
+            out[sharp], _ = self.level_values(0, P[sharp])
+        if broad.any():
+            vl, _ = self.level_values(L - 1, P[broad])
+            w = (mean_resultant(lamv[broad]) / mean_resultant(self.lambdas[-1]))[:, None]
+            out[broad] = self.mean + w * (vl - self.mean)
+        if mid.any():
+            idx = np.nonzero(mid)[0]
+            lev = np.minimum(np.floor(x[idx]).astype(int), L - 2)
+            for l in np.unique(lev):
+                sel = idx[lev == l]
+                out[sel] = self._hermite(l, P[sel], lamv[sel], x[sel] - l)
+        out = out.reshape(shape + (3,))
+        if normalized:
+            return out
+        return out * np.broadcast_to(sg_norm(lam), shape)[..., None]
+
+    def _hermite(self, l: int, P: np.ndarray, lam: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Cubic Hermite of y = ln Γ in u = ln λ between levels l and l+1 (t ∈ [0, 1])."""
+        va, ma = self.level_values(l, P)
+        vb, mb = self.level_values(l + 1, P)
+        la, lb = self.lambdas[l], self.lambdas[l + 1]
+        t = t[:, None]
+        lin = (1.0 - t) * va + t * vb
+        ok = (va > 0) & (vb > 0)
+        ya = np.log(np.where(ok, va, 1.0) * sg_norm(la))
+        yb = np.log(np.where(ok, vb, 1.0) * sg_norm(lb))
+        du = math.log(lb / la)
+        t2 = t * t
+        t3 = t2 * t
+        y = ((2 * t3 - 3 * t2 + 1) * ya + (t3 - 2 * t2 + t) * du * ma
+             + (-2 * t3 + 3 * t2) * yb + (t3 - t2) * du * mb)
+        herm = np.exp(y) / sg_norm(lam)[:, None]
+        return np.where(ok, herm, lin)
+
+
+def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> Pyramid:
+    """Γ_L pyramid of a (6, N, N, 3) cubemap (OpenGL faces; rows ↔ t, columns ↔ s)."""
+    s = settings or PyramidSettings()
+    cube = np.ascontiguousarray(cube, dtype=np.float64)
+    n_fin = cube.shape[1]
+    t0 = time.perf_counter()
+    lams, res = pyramid_levels(n_fin, s)
+    bright, tau = _bright_mask(cube, s.bright_factor)
+    dirs = cube_texel_dirs_jit(n_fin)
+    energy = cube * cubemap_solid_angles(n_fin)[..., None]
+    dim = _MomentMip(_point_masses(dirs, energy, ~bright))
+    brt = _MomentMip(_point_masses(dirs, energy, bright)) if bright.any() else None
+    del dirs
+    lum = cube.sum(-1)
+    med = max(float(np.median(lum)), 1e-3 * float(lum.mean()), 1e-30)
+    t_bright = s.tail_bright or float(np.clip(
+        math.sqrt(2.0 * math.log(max(float(lum.max()) / med, 1.0) * 1e3)), 4.5, 7.0))
+    values, slopes = [], []
+    ext = BORDER + _EXTRA
+    for lam, n in zip(lams, res):
+        sigma = 1.0 / math.sqrt(lam)
+        acc = np.zeros((6, n + 2 * ext, n + 2 * ext, 6))
+        for mip, k_src, tail in ((dim, s.src_texels_per_sigma, s.tail_dim),
+                                 (brt, s.bright_src_texels_per_sigma, t_bright)):
+            if mip is None:
+                continue
+            src, ex = mip.source(sigma, k_src)
+            cos_cut = max(-2.0, 1.0 - tail * tail / (2.0 * lam))
+            _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc)
+        w = int(n) + 2 * BORDER
+        vals = np.empty((6 * w, w, 3), np.float32)
+        slps = np.empty((6 * w, w, 3), np.float32)
+        _pj.finish_level(acc, float(lam), float(sg_norm(lam)), _EXTRA, vals, slps)
+        values.append(vals)
+        slopes.append(slps)
+        # keep memory bounded: drop source levels no later (broader) level will use
+        nxt = sigma * math.sqrt(s.ratio)
+        dim.release_below(dim.pick(nxt, s.src_texels_per_sigma))
+        if brt is not None:
+            brt.release_below(brt.pick(nxt, s.bright_src_texels_per_sigma))
+    mean = energy.sum(axis=(0, 1, 2)) / (4.0 * np.pi)
+    info = {"tau_bright": tau, "bright_texels": int(bright.sum()), "tail_bright": t_bright,
+            "tail_dim": s.tail_dim, "build_s": time.perf_counter() - t0}
+    return Pyramid(lambdas=lams, face_res=res, values=values, slopes=slopes, mean=mean,
+                   ratio=s.ratio, info=info)

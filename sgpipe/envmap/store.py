@@ -1,0 +1,103 @@
+"""The `envmap/` artifact contract (docs/ARTIFACTS.md): file layout of the pyramid, MIP chains
+and light fits, and the reference readers the renderer and tests use."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from sgpipe.envmap.lightfit import SGLight
+from sgpipe.envmap.mip import MipChain
+from sgpipe.envmap.pyramid import BORDER, Pyramid
+from sgpipe.errors import BadInput
+from sgpipe.io import read_exr, read_npz
+
+PYRAMID_INDEX = "pyramid.npz"
+MIP_INDEX = "mip.npz"
+LIGHT_SG = "light_sg.npz"
+LIGHT_SH = "light_sh.npz"
+
+
+def level_name(level: int, kind: str = "level") -> str:
+    return f"pyramid/{kind}_{level:02d}.exr"
+
+
+def pyramid_files(pyr: Pyramid):
+    """[(name, image, metadata, png)] for the pyramid EXRs."""
+    out = []
+    for l, (lam, n) in enumerate(zip(pyr.lambdas, pyr.face_res)):
+        meta = {"lambda": float(lam), "level": l, "face_res": int(n), "border": BORDER,
+                "layout": "cube6v_b2", "normalized": 1, "basis": "cubic_bspline"}
+        out.append((level_name(l), pyr.values[l], {**meta, "quantity": "V"}, True))
+        out.append((level_name(l, "slope"), pyr.slopes[l], {**meta, "quantity": "dlnG_dlnlambda"},
+                    False))
+    return out
+
+
+def pyramid_index(pyr: Pyramid) -> dict:
+    sizes = [v.shape[0] * v.shape[1] for v in pyr.values]
+    return {"lambdas": np.asarray(pyr.lambdas, np.float64),
+            "face_res": np.asarray(pyr.face_res, np.int32),
+            "offsets": np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
+            "mean": np.asarray(pyr.mean, np.float64),
+            "ratio": np.float64(pyr.ratio), "border": np.int32(BORDER)}
+
+
+def load_pyramid(folder: str | Path) -> Pyramid:
+    """Read `<folder>/pyramid.npz` and its level EXRs → a Pyramid with `.lookup(p, λ)`."""
+    folder = Path(folder)
+    idx = read_npz(folder / PYRAMID_INDEX, required=("lambdas", "face_res", "mean", "ratio"))
+    values, slopes = [], []
+    for l, n in enumerate(idx["face_res"]):
+        for kind, dst in (("level", values), ("slope", slopes)):
+            img = read_exr(folder / level_name(l, kind), channels=(3,))
+            if img.shape != (6 * (n + 2 * BORDER), n + 2 * BORDER, 3):
+                raise BadInput(f"level {l} has shape {img.shape}, index says face_res {n}",
+                               file=folder / level_name(l, kind))
+            dst.append(img)
+    return Pyramid(lambdas=idx["lambdas"], face_res=idx["face_res"].astype(np.int64),
+                   values=values, slopes=slopes, mean=idx["mean"], ratio=float(idx["ratio"]))
+
+
+def mip_files(cube: MipChain, dp: MipChain):
+    out = []
+    for m, (img, n) in enumerate(zip(cube.levels, cube.res)):
+        out.append((f"mip/cube_{m:02d}.exr", img, {"level": m, "face_res": n, "border": 1,
+                                                    "layout": "cube6v_b1"}, True))
+    for m, (img, n) in enumerate(zip(dp.levels, dp.res)):
+        out.append((f"mip/dp_{m:02d}.exr", img, {"level": m, "res": n, "b": dp.b,
+                                                  "layout": "dp2h"}, True))
+    return out
+
+
+def mip_index(cube: MipChain, dp: MipChain) -> dict:
+    sizes = [v.shape[0] * v.shape[1] for v in cube.levels]
+    dsz = [v.shape[0] * v.shape[1] for v in dp.levels]
+    return {"cube_res": np.asarray(cube.res, np.int32),
+            "cube_offsets": np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
+            "dp_res": np.asarray(dp.res, np.int32),
+            "dp_offsets": np.concatenate([[0], np.cumsum(dsz)]).astype(np.int64),
+            "dp_b": np.float64(dp.b), "N": np.int32(cube.res[0])}
+
+
+def load_mip_chain(folder: str | Path, kind: str = "cube") -> MipChain:
+    """Read the box MIP chain (`kind` "cube" or "dp") → MipChain with lobe_lod / fis_lod."""
+    folder = Path(folder)
+    idx = read_npz(folder / MIP_INDEX, required=("cube_res", "dp_res", "dp_b"))
+    if kind == "cube":
+        levels = [read_exr(folder / f"mip/cube_{m:02d}.exr", channels=(3,))
+                  for m in range(len(idx["cube_res"]))]
+        return MipChain("cube", levels)
+    if kind == "dp":
+        levels = [read_exr(folder / f"mip/dp_{m:02d}.exr", channels=(3,))
+                  for m in range(len(idx["dp_res"]))]
+        return MipChain("dp", levels, b=float(idx["dp_b"]))
+    raise ValueError(f"kind must be 'cube' or 'dp', got {kind!r}")
+
+
+def load_light_fits(folder: str | Path) -> dict:
+    """{"sg": SGLight, "sh": {"lmax", "coeffs", "irradiance_coeffs"}} from the light-fit NPZs."""
+    folder = Path(folder)
+    sg = read_npz(folder / LIGHT_SG, required=("axes", "sharpness", "amplitude"))
+    sh = read_npz(folder / LIGHT_SH, required=("lmax", "coeffs", "irradiance_coeffs"))
+    return {"sg": SGLight(sg["axes"], sg["sharpness"], sg["amplitude"]), "sh": sh}

@@ -1,0 +1,103 @@
+"""Γ_L pyramid (Wang09 eq 34–35) against brute-force quadrature of the same integral."""
+import numpy as np
+import pytest
+
+from sgpipe.envmap.pyramid import PyramidSettings, build_pyramid, pyramid_levels, sg_norm
+
+from .envmap_helpers import boxes_cube, brute_gamma, probe_directions, sky_sun_cube
+
+N = 64
+
+
+@pytest.fixture(scope="module")
+def sky_sun():
+    cube = sky_sun_cube(N)
+    return cube, build_pyramid(cube)
+
+
+@pytest.fixture(scope="module")
+def boxes():
+    cube = boxes_cube(N)
+    return cube, build_pyramid(cube)
+
+
+def test_levels_log_spaced_from_finest_texel_to_one():
+    s = PyramidSettings()
+    lams, res = pyramid_levels(128, s)
+    assert lams[0] == pytest.approx((128 / (2 * s.texels_per_sigma)) ** 2)
+    np.testing.assert_allclose(lams[:-1] / lams[1:], s.ratio)
+    assert lams[-1] <= s.lambda_min < lams[-2]
+    assert res[0] == 128 and np.all(np.diff(res) <= 0) and res[-1] >= s.min_res
+    # broad levels are small: resolution follows σ = 1/√λ
+    assert np.all(res[res > s.min_res] >= 2 * s.texels_per_sigma * np.sqrt(lams[res > s.min_res]) - 1)
+
+
+def _rel_err(pyr, cube, lam, dirs):
+    ref = brute_gamma(cube, dirs, lam)
+    got = pyr.lookup(dirs, lam)
+    return np.abs(got / ref - 1.0).max(axis=1)
+
+
+# λ on levels and between them (the λ interpolation), from broad to the sharpest level
+LAMBDAS = [0.1, 0.6, 1.0, 3.3, 9.0, 27.0, 80.0, 181.0, 256.0]
+
+
+@pytest.mark.parametrize("lam", LAMBDAS)
+def test_tiny_bright_source_within_one_percent(sky_sun, lam):
+    cube, pyr = sky_sun
+    sun = np.array([0.42, 0.61, -0.67]) / np.linalg.norm([0.42, 0.61, -0.67])
+    rng = np.random.default_rng(3)
+    near = sun + rng.normal(size=(300, 3)) * 2.0 / np.sqrt(lam)   # the lobe's rim around the sun
+    err = _rel_err(pyr, cube, lam, probe_directions(extra=near))
+    assert err.max() < 0.01, f"λ={lam}: max relative error {err.max():.4f}"
+
+
+@pytest.mark.parametrize("lam", [0.6, 4.4, 27.0, 128.0, 200.0])
+def test_sharp_edged_sources_within_one_percent(boxes, lam):
+    cube, pyr = boxes
+    err = _rel_err(pyr, cube, lam, probe_directions(seed=11))
+    assert err.max() < 0.01, f"λ={lam}: max relative error {err.max():.4f}"
+
+
+def test_white_furnace_every_lambda():
+    cube = np.ones((6, 16, 16, 3))
+    pyr = build_pyramid(cube)
+    d = probe_directions(200)
+    for lam in [0.05, 0.5, 2.0, 7.0, float(pyr.lambdas[0]), 1e4]:
+        v = pyr.lookup(d, lam, normalized=True)
+        # a constant map stays constant up to the texel quadrature error (2 texels per σ at λ_0)
+        np.testing.assert_allclose(v, 1.0, rtol=5e-3, err_msg=f"λ={lam}")
+        np.testing.assert_allclose(pyr.lookup(d[:3], lam), sg_norm(lam) * v[:3], rtol=1e-12)
+
+
+def test_lookup_continuous_across_seams(sky_sun):
+    _, pyr = sky_sun
+    eps = 1e-7
+    for axis in range(3):
+        for other in range(3):
+            if other == axis:
+                continue
+            a = np.zeros(3)
+            a[axis] = 1.0
+            a[other] = 1.0
+            da = a.copy()
+            da[axis] += eps
+            db = a.copy()
+            db[other] += eps                      # nudges the direction onto the other face
+            for lam in (200.0, 20.0, 2.0):
+                va = pyr.lookup(da / np.linalg.norm(da), lam, normalized=True)
+                vb = pyr.lookup(db / np.linalg.norm(db), lam, normalized=True)
+                np.testing.assert_allclose(va, vb, rtol=2e-3)
+
+
+def test_slope_matches_finite_difference(sky_sun):
+    cube, pyr = sky_sun
+    d = probe_directions(100, seed=5)
+    lev = 4
+    lam = float(pyr.lambdas[lev])
+    _, m = pyr.level_values(lev, d)
+    h = 1e-3
+    g1 = brute_gamma(cube, d, lam * (1 + h))
+    g0 = brute_gamma(cube, d, lam * (1 - h))
+    fd = (np.log(g1) - np.log(g0)) / (np.log1p(h) - np.log1p(-h))
+    np.testing.assert_allclose(m, fd, atol=0.02 * max(1.0, np.abs(fd).max()))
