@@ -35,13 +35,16 @@ def quat_from_to(a, b):
     a = _unit(a)
     b = _unit(b)
     a, b = np.broadcast_arrays(a, b)
-    c = np.sum(a * b, axis=-1)
-    v = np.cross(a, b)
-    q = np.concatenate([v, (1.0 + c)[..., None]], axis=-1)
-    anti = (1.0 + c) < 1e-12
+    # Half-vector form q = (a × h, a·h), h = (a + b)/|a + b|: exact to rounding even when b is
+    # within 1e-8 of −a, where (a × b, 1 + a·b) loses every digit.
+    s = a + b
+    n = np.linalg.norm(s, axis=-1)
+    anti = n < 1e-150
+    h = s / np.where(anti, 1.0, n)[..., None]
+    q = np.concatenate([np.cross(a, h), np.sum(a * h, axis=-1)[..., None]], axis=-1)
     if np.any(anti):
         perp = _any_perpendicular(a)
-        q = np.where(anti[..., None], np.concatenate([perp, np.zeros(c.shape + (1,))], -1), q)
+        q = np.where(anti[..., None], np.concatenate([perp, np.zeros(n.shape + (1,))], -1), q)
     return _unit(q)
 
 
