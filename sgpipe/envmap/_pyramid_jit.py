@@ -357,10 +357,11 @@ def _prefilter_line(c, n):
 
 
 @njit(cache=True, parallel=True)
-def finish_level(acc, lam, norm, extra, values, slopes):
+def finish_level(acc, lam, norm, extra, values, slopes, plain):
     """From the gathered Γ, ∂Γ/∂λ (6, m, m, 6): V = Γ/S(λ), m = λ Γ'/Γ, then cubic B-spline
     coefficients per face and channel (rows, then columns), cropped by `extra` into the
-    (6·w, w, 3) float32 images `values` and `slopes` (w = m − 2·extra)."""
+    (6·w, w, 3) float32 images `values` and `slopes` (w = m − 2·extra); `plain` (6·(w−2), w−2, 3)
+    receives the V samples themselves with a 1-texel border."""
     m = acc.shape[1]
     w = m - 2 * extra
     for job in prange(6 * 6):
@@ -374,6 +375,11 @@ def finish_level(acc, lam, norm, extra, values, slopes):
                     buf[i, j] = g / norm
                 else:
                     buf[i, j] = lam * acc[f, i, j, c] / g if g > 0.0 else 0.0
+        if c < 3:
+            wp = w - 2
+            for i in range(wp):
+                for j in range(wp):
+                    plain[f * wp + i, j, c] = buf[i + extra + 1, j + extra + 1]
         line = np.empty(m)
         for i in range(m):
             for j in range(m):

@@ -146,6 +146,7 @@ class Pyramid:
     mean: np.ndarray                     # (3,) mean radiance (the λ → 0 limit)
     ratio: float
     info: dict = field(default_factory=dict)
+    samples: list[np.ndarray] | None = None   # per level (6·(n+2), n+2, 3) V samples, border 1
 
     @property
     def border(self) -> int:
@@ -159,9 +160,39 @@ class Pyramid:
         m = sample_bordered(self.slopes[level], n, BORDER, d, True, np.empty((len(d), 3)))
         return v, m
 
+    def lookup_simple(self, p, lam, *, normalized: bool = False) -> np.ndarray:
+        """The cheap variant of docs/ARTIFACTS.md: bilinear V samples (border 1), linear in
+        ln λ between levels (same clamps). Up to ~5–20 % off near bright sources between levels."""
+        p = np.asarray(p, float)
+        lam = np.asarray(lam, float)
+        shape = np.broadcast_shapes(p.shape[:-1], lam.shape)
+        P = np.ascontiguousarray(np.broadcast_to(p, shape + (3,)).reshape(-1, 3))
+        lamv = np.broadcast_to(lam, shape).reshape(-1)
+        L = len(self.lambdas)
+        x = np.log(self.lambdas[0] / np.maximum(lamv, 1e-300)) / math.log(self.ratio)
+        out = np.empty((len(P), 3))
+        lo = np.clip(np.floor(x), 0, L - 1).astype(int)
+        for l in np.unique(lo):
+            sel = lo == l
+            n = int(self.face_res[l])
+            va = sample_bordered(self.samples[l], n, 1, P[sel], False, np.empty((sel.sum(), 3)))
+            if l + 1 < L:
+                nb = int(self.face_res[l + 1])
+                vb = sample_bordered(self.samples[l + 1], nb, 1, P[sel], False,
+                                     np.empty((sel.sum(), 3)))
+                t = np.clip(x[sel] - l, 0.0, 1.0)[:, None]
+                va = (1 - t) * va + t * vb
+            else:
+                w = (mean_resultant(lamv[sel]) / mean_resultant(self.lambdas[-1]))[:, None]
+                va = np.where(x[sel, None] > L - 1, self.mean + w * (va - self.mean), va)
+            out[sel] = va
+        out = out.reshape(shape + (3,))
+        return out if normalized else out * np.broadcast_to(sg_norm(lam), shape)[..., None]
+
     def lookup(self, p, lam, *, normalized: bool = False) -> np.ndarray:
         """⟨G(·; p, λ, 1), L⟩ = Γ_L(p, λ) (Wang09 eq 35) for unit p (..., 3) and λ (broadcast);
-        normalized=True returns V = Γ_L/S(λ) (a weighted mean radiance). Returns (..., 3)."""
+        normalized=True returns V = Γ_L/S(λ) (a weighted mean radiance). Returns (..., 3).
+        Cubic B-spline in p, cubic Hermite of ln Γ_L in ln λ (the accurate path)."""
         p = np.asarray(p, float)
         lam = np.asarray(lam, float)
         shape = np.broadcast_shapes(p.shape[:-1], lam.shape)
@@ -228,7 +259,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     med = max(float(np.median(lum)), 1e-3 * float(lum.mean()), 1e-30)
     t_bright = s.tail_bright or float(np.clip(
         math.sqrt(2.0 * math.log(max(float(lum.max()) / med, 1.0) * 1e3)), 4.5, 7.0))
-    values, slopes = [], []
+    values, slopes, samples = [], [], []
     ext = BORDER + _EXTRA
     for lam, n in zip(lams, res):
         sigma = 1.0 / math.sqrt(lam)
@@ -243,9 +274,11 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         w = int(n) + 2 * BORDER
         vals = np.empty((6 * w, w, 3), np.float32)
         slps = np.empty((6 * w, w, 3), np.float32)
-        _pj.finish_level(acc, float(lam), float(sg_norm(lam)), _EXTRA, vals, slps)
+        smp = np.empty((6 * (n + 2), n + 2, 3), np.float32)
+        _pj.finish_level(acc, float(lam), float(sg_norm(lam)), _EXTRA, vals, slps, smp)
         values.append(vals)
         slopes.append(slps)
+        samples.append(smp)
         # keep memory bounded: drop source levels no later (broader) level will use
         nxt = sigma * math.sqrt(s.ratio)
         dim.release_below(dim.pick(nxt, s.src_texels_per_sigma))
@@ -255,4 +288,4 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     info = {"tau_bright": tau, "bright_texels": int(bright.sum()), "tail_bright": t_bright,
             "tail_dim": s.tail_dim, "build_s": time.perf_counter() - t0}
     return Pyramid(lambdas=lams, face_res=res, values=values, slopes=slopes, mean=mean,
-                   ratio=s.ratio, info=info)
+                   ratio=s.ratio, info=info, samples=samples)

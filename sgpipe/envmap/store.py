@@ -23,40 +23,49 @@ def level_name(level: int, kind: str = "level") -> str:
 
 
 def pyramid_files(pyr: Pyramid):
-    """[(name, image, metadata, png)] for the pyramid EXRs."""
+    """[(name, image, metadata, png)] for the pyramid EXRs: `level_LL` plain V samples (border
+    1, bilinear), `coef_LL` / `slope_LL` cubic B-spline coefficients of V and m (border 2)."""
     out = []
     for l, (lam, n) in enumerate(zip(pyr.lambdas, pyr.face_res)):
-        meta = {"lambda": float(lam), "level": l, "face_res": int(n), "border": BORDER,
-                "layout": "cube6v_b2", "normalized": 1, "basis": "cubic_bspline"}
-        out.append((level_name(l), pyr.values[l], {**meta, "quantity": "V"}, True))
-        out.append((level_name(l, "slope"), pyr.slopes[l], {**meta, "quantity": "dlnG_dlnlambda"},
-                    False))
+        meta = {"lambda": float(lam), "level": l, "face_res": int(n), "normalized": 1}
+        out.append((level_name(l), pyr.samples[l],
+                    {**meta, "quantity": "V", "border": 1, "layout": "cube6v_b1",
+                     "basis": "samples"}, True))
+        b2 = {**meta, "border": BORDER, "layout": "cube6v_b2", "basis": "cubic_bspline"}
+        out.append((level_name(l, "coef"), pyr.values[l], {**b2, "quantity": "V"}, False))
+        out.append((level_name(l, "slope"), pyr.slopes[l],
+                    {**b2, "quantity": "dlnG_dlnlambda"}, False))
     return out
 
 
 def pyramid_index(pyr: Pyramid) -> dict:
-    sizes = [v.shape[0] * v.shape[1] for v in pyr.values]
+    def offs(imgs):
+        return np.concatenate([[0], np.cumsum([v.shape[0] * v.shape[1] for v in imgs])]
+                              ).astype(np.int64)
     return {"lambdas": np.asarray(pyr.lambdas, np.float64),
             "face_res": np.asarray(pyr.face_res, np.int32),
-            "offsets": np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
-            "mean": np.asarray(pyr.mean, np.float64),
-            "ratio": np.float64(pyr.ratio), "border": np.int32(BORDER)}
+            "offsets": offs(pyr.samples), "border": np.int32(1),
+            "coef_offsets": offs(pyr.values), "coef_border": np.int32(BORDER),
+            "mean": np.asarray(pyr.mean, np.float64), "ratio": np.float64(pyr.ratio)}
 
 
 def load_pyramid(folder: str | Path) -> Pyramid:
-    """Read `<folder>/pyramid.npz` and its level EXRs → a Pyramid with `.lookup(p, λ)`."""
+    """Read `<folder>/pyramid.npz` and its level EXRs → a Pyramid with `.lookup(p, λ)`
+    (accurate) and `.lookup_simple(p, λ)` (bilinear samples, linear in ln λ)."""
     folder = Path(folder)
     idx = read_npz(folder / PYRAMID_INDEX, required=("lambdas", "face_res", "mean", "ratio"))
-    values, slopes = [], []
+    values, slopes, samples = [], [], []
     for l, n in enumerate(idx["face_res"]):
-        for kind, dst in (("level", values), ("slope", slopes)):
+        for kind, dst, b in (("coef", values, BORDER), ("slope", slopes, BORDER),
+                             ("level", samples, 1)):
             img = read_exr(folder / level_name(l, kind), channels=(3,))
-            if img.shape != (6 * (n + 2 * BORDER), n + 2 * BORDER, 3):
+            if img.shape != (6 * (n + 2 * b), n + 2 * b, 3):
                 raise BadInput(f"level {l} has shape {img.shape}, index says face_res {n}",
                                file=folder / level_name(l, kind))
             dst.append(img)
     return Pyramid(lambdas=idx["lambdas"], face_res=idx["face_res"].astype(np.int64),
-                   values=values, slopes=slopes, mean=idx["mean"], ratio=float(idx["ratio"]))
+                   values=values, slopes=slopes, mean=idx["mean"], ratio=float(idx["ratio"]),
+                   samples=samples)
 
 
 def mip_files(cube: MipChain, dp: MipChain):
