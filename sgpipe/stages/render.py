@@ -146,7 +146,9 @@ def _compare(run, images: dict, truth: str) -> None:
             continue
         if hasattr(cmp, "compare_to_reference"):
             d = cmp.compare_to_reference(run, img, ref_path, method)
-            log(f"[render] {method} vs {truth}: PSNR {d.get('psnr_db')} dB")
+            psnr = d.get("psnr_db")
+            shown = "inf (identical)" if psnr is None else f"{psnr:.2f}"
+            log(f"[render] {method} vs {truth}: PSNR {shown} dB, SSIM {d.get('ssim', 0):.4f}")
         else:  # pragma: no cover - compare stage absent
             err = float(np.mean((img - images[truth]) ** 2))
             run.report.setdefault("compare", {})[method] = {"mse": err}
