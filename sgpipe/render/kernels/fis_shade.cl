@@ -92,23 +92,15 @@ __kernel void fis_shade(
 {
     int gid = get_global_id(0);
     if (gid >= n) return;
-    float3 N = gnrm[gid].xyz, T = gtan[gid].xyz;
-    float3 B = cross(N, T);
-    float3 x = gpos[gid].xyz;
-    int8 ob = objs[gobj[gid]];
+    Pixel px = pixel_init(gid, gnrm, gtan, gview, gpos, guv, gobj, objs, mats, texels, texinfo);
+    float3 N = px.N, T = px.T, B = px.B, x = px.x, kd = px.kd, ks = px.ks, op = px.op;
+    float4 q = px.q, qi = px.qi;
+    int8 ob = px.ob;
+    __global const float *m = px.m;
     int mi = ob.s0;
-    __global const float *m = mats + mi * MAT_STRIDE;
-    float3 kd = mat3(m, MAT_KD), ks = mat3(m, MAT_KS);
-    float2 uv = guv[gid];
-    if ((int)m[MAT_KDTEX] >= 0) kd *= tex_bilinear(texels, texinfo[(int)m[MAT_KDTEX]], uv).xyz;
-    if ((int)m[MAT_KSTEX] >= 0) ks *= tex_bilinear(texels, texinfo[(int)m[MAT_KSTEX]], uv).xyz;
-    Vis vis;
+    Vis vis;   /* PCA coefficients interpolated over the SSDF mesh triangle (eq 24) */
     vis_init(&vis, ob, objf[gobj[gid]].x, gtri[gid], gbary[gid], vfaces, coeffs, ssdf_data,
              !(flags & 4));
-    float4 q = (float4)(0.0f, 0.0f, 0.0f, 1.0f);
-    if (ob.s7 >= 0) q = quat_from_z(normal_from_map(tex_bilinear(texels, texinfo[ob.s7], uv)));
-    float4 qi = quat_conj(q);
-    float3 op = lift(normalize(quat_rotate(qi, lift(to_local(gview[gid].xyz, T, B, N), 0.01f))), 0.01f);
 
     int4 ndf = ndf_info[mi];
     int nl = ndf.w ? min((int)m[MAT_NLOBES], MAX_NDF_LOBES) : 0;

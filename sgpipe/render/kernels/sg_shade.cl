@@ -30,30 +30,14 @@ __kernel void sg_shade(
 {
     int gid = get_global_id(0);
     if (gid >= n) return;
-    float3 N = gnrm[gid].xyz, T = gtan[gid].xyz;
-    float3 B = cross(N, T);
-    float3 ow = gview[gid].xyz;
-    float3 x = gpos[gid].xyz;
-    int8 ob = objs[gobj[gid]];
-    __global const float *m = mats + ob.s0 * MAT_STRIDE;
-
-    float3 kd = mat3(m, MAT_KD), ks = mat3(m, MAT_KS);
-    float2 uv = guv[gid];
-    if ((int)m[MAT_KDTEX] >= 0) kd *= tex_bilinear(texels, texinfo[(int)m[MAT_KDTEX]], uv).xyz;
-    if ((int)m[MAT_KSTEX] >= 0) ks *= tex_bilinear(texels, texinfo[(int)m[MAT_KSTEX]], uv).xyz;
-
-    /* Visibility: PCA coefficients interpolated over the SSDF mesh triangle (eq 24). */
-    Vis vis;
+    Pixel px = pixel_init(gid, gnrm, gtan, gview, gpos, guv, gobj, objs, mats, texels, texinfo);
+    float3 N = px.N, T = px.T, B = px.B, x = px.x, kd = px.kd, ks = px.ks, op = px.op;
+    float4 q = px.q, qi = px.qi;
+    int8 ob = px.ob;
+    __global const float *m = px.m;
+    Vis vis;   /* PCA coefficients interpolated over the SSDF mesh triangle (eq 24) */
     vis_init(&vis, ob, objf[gobj[gid]].x, gtri[gid], gbary[gid], vfaces, coeffs, ssdf_data,
              !(flags & 4));
-
-    /* Normal map (§7): rotation q of the local frame; BRDF quantities live in the rotated
-     * frame (primed), visibility in the geometric one. */
-    float4 q = (float4)(0.0f, 0.0f, 0.0f, 1.0f);
-    if (ob.s7 >= 0) q = quat_from_z(normal_from_map(tex_bilinear(texels, texinfo[ob.s7], uv)));
-    float4 qi = quat_conj(q);
-    float3 ol = to_local(ow, T, B, N);
-    float3 op = lift(normalize(quat_rotate(qi, lift(ol, 0.01f))), 0.01f);
     SG cosq = sg_clamped_cosine((float3)(0.0f, 0.0f, 1.0f));   /* C*(z+) of the rotated frame */
     SG cosg = cosq; cosg.p = quat_rotate(q, cosq.p);             /* ... in the geometric frame */
 

@@ -121,6 +121,43 @@ inline float vis_theta(const Vis *v, float3 d) {
     return clamp(th, -lim, lim);
 }
 
+/* Per-pixel set-up shared by sg, gmm and fis: the G-buffer frame (n, t, b = n × t), the
+ * material with its texture scales (SVBRDF), and the normal-map rotation q of the local frame
+ * (§7) with the view direction o' in the rotated frame. Visibility stays in the geometric one. */
+typedef struct {
+    float3 N, T, B, x, kd, ks, op;
+    float2 uv;
+    int8 ob;
+    __global const float *m;
+    float4 q, qi;
+} Pixel;
+
+inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const float4 *gtan,
+                        __global const float4 *gview, __global const float4 *gpos,
+                        __global const float2 *guv, __global const int *gobj,
+                        __global const int8 *objs, __global const float *mats,
+                        __global const float4 *texels, __global const int4 *texinfo) {
+    Pixel p;
+    p.N = gnrm[gid].xyz;
+    p.T = gtan[gid].xyz;
+    p.B = cross(p.N, p.T);
+    p.x = gpos[gid].xyz;
+    p.ob = objs[gobj[gid]];
+    p.m = mats + p.ob.s0 * MAT_STRIDE;
+    p.uv = guv[gid];
+    p.kd = mat3(p.m, MAT_KD);
+    p.ks = mat3(p.m, MAT_KS);
+    if ((int)p.m[MAT_KDTEX] >= 0) p.kd *= tex_bilinear(texels, texinfo[(int)p.m[MAT_KDTEX]], p.uv).xyz;
+    if ((int)p.m[MAT_KSTEX] >= 0) p.ks *= tex_bilinear(texels, texinfo[(int)p.m[MAT_KSTEX]], p.uv).xyz;
+    p.q = (float4)(0.0f, 0.0f, 0.0f, 1.0f);
+    if (p.ob.s7 >= 0)
+        p.q = quat_from_z(normal_from_map(tex_bilinear(texels, texinfo[p.ob.s7], p.uv)));
+    p.qi = quat_conj(p.q);
+    float3 ol = lift(to_local(gview[gid].xyz, p.T, p.B, p.N), 0.01f);
+    p.op = lift(normalize(quat_rotate(p.qi, ol)), 0.01f);
+    return p;
+}
+
 /* Lobes at least this sharp are treated as small lights: their product with the broad
  * clamped-cosine SG C* (λ = 2.133, peak 1.17) is replaced by its sharp limit
  * E·max(0, n·l)·f̂_h(θ_d(l), λ). C*'s shape error is ±17 % at a single direction (−18 % at
