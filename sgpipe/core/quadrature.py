@@ -28,7 +28,7 @@ def gauss_legendre(n, a=-1.0, b=1.0):
     return a + h * (x + 1.0), h * w
 
 
-def _frame(axis):
+def polar_frame(axis):
     """Orthonormal (e1, e2, axis) with `axis` as polar axis (z ↦ axis)."""
     a = np.asarray(axis, float)
     a = a / np.linalg.norm(a)
@@ -48,7 +48,7 @@ def _product_rule(ct, wt, n_phi, axis):
     w = (wt[:, None] * np.full(n_phi, _TWO_PI / n_phi)[None, :]).reshape(-1)
     if axis is None:
         return local, w
-    e1, e2, a = _frame(axis)
+    e1, e2, a = polar_frame(axis)
     return local[:, :1] * e1 + local[:, 1:2] * e2 + local[:, 2:3] * a, w
 
 

@@ -10,6 +10,7 @@ import numpy as np
 
 from sgpipe.core import fh as _fhmod
 from sgpipe.core.fh import PUBLISHED_FH_COEFFS, fh_exact, fh_hemisphere, fh_sigmoid
+from sgpipe.core.quadrature import polar_frame
 
 #: f_h variants: the exact integral (quadrature), the appendix sigmoid with the foundation's
 #: refit coefficients (fit on λ ∈ [1, 105]) and with the published ones (Wang09 eq 47–49).
@@ -55,12 +56,7 @@ def sample_sg_directions(p, lam, n: int, *, seed: int = 0) -> np.ndarray:
     cos_t = np.clip(cos_t, -1.0, 1.0)
     sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
     phi = 2.0 * np.pi * xi2
-    p = np.asarray(p, float)
-    p = p / np.linalg.norm(p)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(p[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = np.cross(helper, p)
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(p, e1)
+    e1, e2, p = polar_frame(p)
     return ((sin_t * np.cos(phi))[:, None] * e1 + (sin_t * np.sin(phi))[:, None] * e2
             + cos_t[:, None] * p)
 

@@ -9,6 +9,7 @@ from sgpipe.io import read_exr
 from sgpipe.render.camera import Camera
 from sgpipe.render.gbuffer import TraceObject
 from sgpipe.render.reference import render_reference_result
+from sg_testlib import assert_estimators_agree
 
 pytest.importorskip("sgpipe.brdf")
 
@@ -64,24 +65,6 @@ def test_mis_brdf_env_agree_registry(model, params):
                                       seed=21, workers=1, strategy=s)
            for s in ("mis", "brdf", "env")}
     assert_estimators_agree(res)
-
-
-def assert_estimators_agree(res, zmax=4.5):
-    """Pairwise pooled z-scores over all hit pixels and over each image quadrant (a bias
-    confined to part of the sphere shows there). Per-pixel z-scores are not used: BRDF-only and
-    env-only estimates are heavy-tailed, so their per-pixel stderr is itself unreliable."""
-    hit = res["mis"].hit
-    h, w = hit.shape
-    rows, cols = np.indices(hit.shape)
-    groups = [hit] + [hit & ((rows < h // 2) == top) & ((cols < w // 2) == left)
-                      for top in (True, False) for left in (True, False)]
-    for a, b in (("mis", "brdf"), ("mis", "env"), ("brdf", "env")):
-        for g in groups:
-            d = (res[a].image[g] - res[b].image[g]).astype(np.float64)
-            se2 = (res[a].stderr[g].astype(np.float64) ** 2
-                   + res[b].stderr[g].astype(np.float64) ** 2)
-            z = d.sum(0) / np.sqrt(se2.sum(0))
-            assert np.all(np.abs(z) < zmax), (a, b, g.sum(), z)
 
 
 def test_reference_from_config_matches_direct_call():

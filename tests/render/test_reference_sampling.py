@@ -9,6 +9,7 @@ from sgpipe.io import read_exr
 from sgpipe.render.camera import Camera
 from sgpipe.render.gbuffer import TraceObject
 from sgpipe.render.reference import EnvSampler, render_reference_result
+from sg_testlib import assert_estimators_agree
 
 DATA = __import__("pathlib").Path(__file__).resolve().parents[2] / "data_samples"
 
@@ -130,30 +131,12 @@ def _strategies(objs, mats, env, cam, spp, seed):
             for s in ("mis", "brdf", "env")}
 
 
-def _assert_agree(res, zmax=4.5):
-    """Pairwise pooled z-scores over all hit pixels and over each image quadrant (a bias
-    confined to part of the sphere shows there). Per-pixel z-scores are not used: BRDF-only and
-    env-only estimates are heavy-tailed, so their per-pixel stderr is itself unreliable."""
-    hit = res["mis"].hit
-    h, w = hit.shape
-    rows, cols = np.indices(hit.shape)
-    groups = [hit] + [hit & ((rows < h // 2) == top) & ((cols < w // 2) == left)
-                      for top in (True, False) for left in (True, False)]
-    for a, b in (("mis", "brdf"), ("mis", "env"), ("brdf", "env")):
-        for g in groups:
-            d = (res[a].image[g] - res[b].image[g]).astype(np.float64)
-            se2 = (res[a].stderr[g].astype(np.float64) ** 2
-                   + res[b].stderr[g].astype(np.float64) ** 2)
-            z = d.sum(0) / np.sqrt(se2.sum(0))
-            assert np.all(np.abs(z) < zmax), (a, b, g.sum(), z)
-
-
 def test_mis_brdf_env_agree_glossy_phong_studio():
     cam = Camera(eye=(0, 0, 4), target=(0, 0, 0), fov_deg=30, width=16, height=16)
     env = read_exr(DATA / "studio.exr")
     objs = [TraceObject.sphere("s", (0, 0, 0), 1.0)]
     res = _strategies(objs, [Phong(0.6, 40, kd=0.3)], env, cam, spp=96, seed=7)
-    _assert_agree(res)
+    assert_estimators_agree(res)
     # MIS should not be worse than the worse single technique
     v = {k: np.mean(r.stderr[r.hit] ** 2) for k, r in res.items()}
     assert v["mis"] < max(v["brdf"], v["env"]), v
