@@ -35,16 +35,20 @@ def quat_from_to(a, b):
     a = _unit(a)
     b = _unit(b)
     a, b = np.broadcast_arrays(a, b)
-    # Half-vector form q = (a × h, a·h), h = (a + b)/|a + b|: exact to rounding even when b is
-    # within 1e-8 of −a, where (a × b, 1 + a·b) loses every digit.
-    s = a + b
-    n = np.linalg.norm(s, axis=-1)
-    anti = n < 1e-150
-    h = s / np.where(anti, 1.0, n)[..., None]
-    q = np.concatenate([np.cross(a, h), np.sum(a * h, axis=-1)[..., None]], axis=-1)
+    # q ∝ (a × b, 1 + a·b). Near b = −a, 1 + a·b cancels to nothing; use the identity
+    # 1 + c = |a × b|² / (1 − c) there, which keeps every digit of the small tilt.
+    c = np.sum(a * b, axis=-1)
+    v = np.cross(a, b)
+    # Rounding leaves a 1e-16 component of a × b along a; relative to a tiny |a × b| it would
+    # tilt the rotation axis off a's orthogonal plane, so project it out.
+    v = v - np.sum(v * a, axis=-1)[..., None] * a
+    vv = np.sum(v * v, axis=-1)
+    w = np.where(c < 0.0, vv / (1.0 - np.minimum(c, 0.0)), 1.0 + c)
+    q = np.concatenate([v, w[..., None]], axis=-1)
+    anti = vv + w * w < 1e-300
     if np.any(anti):
         perp = _any_perpendicular(a)
-        q = np.where(anti[..., None], np.concatenate([perp, np.zeros(n.shape + (1,))], -1), q)
+        q = np.where(anti[..., None], np.concatenate([perp, np.zeros(c.shape + (1,))], -1), q)
     return _unit(q)
 
 

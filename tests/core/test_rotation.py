@@ -43,6 +43,7 @@ vec = st.tuples(*[st.floats(-1, 1)] * 3).filter(lambda t: np.linalg.norm(t) > 0.
 @settings(max_examples=80, deadline=None)
 @given(vec, vec)
 @example(np.array([1.0, 0.0, 0.0]), unit((-1.0, 0.0, 5.960464477539063e-08)))  # near-antipodal
+@example(np.array([0.0, 1.0, 0.0]), unit((0.0, -1.0, 1e-08)))  # b_y rounds to exactly −1
 def test_quat_from_to_property(a, b):
     q = quat_from_to(a, b)
     assert np.linalg.norm(q) == pytest.approx(1.0)
