@@ -146,6 +146,38 @@ class MipChain:
         """Paper 000 §V: radiance averaged over the lobe's footprint (the MIP texel at its lod)."""
         return self.lookup(d, self.lobe_lod(d, kappa, a))
 
+    def lobe_integral(self, d, kappa, taps: int = 16, c: float = 1.0) -> np.ndarray:
+        """∫vMF(ω; d, κ) L(ω) dω by `taps` trilinear fetches (the gmm kernel's lookup, eq 6–10
+        made lobe-shaped): level with texel h = c·σ (σ² = 1/κ), taps at the radial quantiles of a
+        vMF of variance σ² − v_f (v_f = h²/4 of the box+bilinear filter), golden-angle azimuths."""
+        d = np.asarray(d, float).reshape(-1, 3)
+        kappa = np.broadcast_to(np.asarray(kappa, float), (len(d),))
+        sig2 = 1.0 / np.maximum(kappa, 1e-4)
+        om0 = self.texel_solid_angle(d)
+        lod = np.clip(0.5 * np.log2(c * c * sig2 / om0), 0.0, len(self.levels) - 1)
+        l0 = np.floor(lod)
+        vf = 0.25 * om0 * 4.0 ** l0 * (1.0 + 3.0 * (lod - l0))
+        kp = 1.0 / np.maximum(sig2 - vf, 0.1 * sig2)
+        s = np.where(d[:, 2] >= 0, 1.0, -1.0)
+        p = -1.0 / (s + d[:, 2])
+        q = d[:, 0] * d[:, 1] * p
+        bu = np.stack([1 + s * d[:, 0] ** 2 * p, s * q, -s * d[:, 0]], -1)
+        bv = np.stack([q, s + d[:, 1] ** 2 * p, -d[:, 1]], -1)
+        acc = np.zeros((len(d), 3))
+        golden = np.pi * (3.0 - math.sqrt(5.0))
+        for i in range(taps):
+            u = (i + 0.5) / taps
+            w = np.clip(1.0 + np.log(u + (1.0 - u) * np.exp(-2.0 * kp)) / kp, -1.0, 1.0)
+            r = np.sqrt(np.maximum(0.0, 1.0 - w * w))[:, None]
+            x = r * (math.cos(-golden * i) * bu + math.sin(-golden * i) * bv) + w[:, None] * d
+            acc += self.lookup(x / np.linalg.norm(x, axis=1, keepdims=True), lod)
+        acc /= taps
+        # a lobe within the finest texel's filter: one bilinear fetch (the taps' limit)
+        sharp = (sig2 <= 0.5 * vf) & (lod <= 0.0)
+        if sharp.any():
+            acc[sharp] = self.level_lookup(0, d[sharp])
+        return acc
+
 
 def build_cube_chain(faces: np.ndarray) -> MipChain:
     return MipChain("cube", [bordered_box_level(f).astype(np.float32)

@@ -1,16 +1,121 @@
 /* Method `gmm` (paper 000 §V): per pixel the view direction in tangent space selects the
- * fitted per-view vMF mixture ρ(i, o_j)(n·i) ≈ Σ_k α_k vMF(i; μ_k, κ_k) (eq 3) — nearest view,
- * or bilinear across views when the fit is coherent — and each lobe is integrated against the
- * environment by ONE box-MIP lookup at the lobe's level (eq 6–10, cube distortion):
- *   L_o ≈ Σ_k α_k · L_mip(μ_k, lod(κ_k)) [· f̂_h(θ_d(μ_k), κ_k) with baseline shadows].
+ * fitted per-view vMF mixture ρ(i, o_j)(n·i) ≈ Σ_k α_k vMF(i; μ_k, κ_k) (eq 3) — nearest view
+ * (its lobes rotated with the view's mirror direction), or bilinear across views when the fit
+ * is coherent — and each lobe is integrated against the environment by a lobe-sized lookup
+ * of the box MIP chain (eq 6–10, cube distortion; gmm_lobe_integral):
+ *   L_o ≈ Σ_k α_k · L̄(μ_k, κ_k) [· f̂_h(θ_d(μ_k), κ_k) with baseline shadows].
  * Diffuse not inside the lobes (includes_diffuse = 0), and purely diffuse materials, use the SG
  * light fit (Wang09 eq 39); local lights use the mixture itself: ρ cos ≈ Σ α vMF(l) times the irradiance.
- * Defines: NV, FH_*, MAX_GMM_LOBES. */
+ * Defines: NV, FH_*, MAX_GMM_LOBES; optional GMM_TAPS, GMM_TAP_C, GMM_ROTATE, GMM_VIEW_BLEND. */
 #include "sg.h"
 #include "ssdf.h"
 #include "cubemap.h"
 #include "microfacet.h"
 #include "shading.h"
+
+/* Lobe integral (see gmm_lobe_integral): taps per lobe (1 = paper 000's single lookup) and
+ * the tap level's texel size in units of the lobe's σ. Measured on the box chain (N = 128,
+ * studio / sky_sun, κ 5…1000): relative RMS error vs quadrature 0.17–0.71 with one lookup,
+ * 0.02–0.12 (studio) / 0.14–0.34 (sun) with 16 taps (docs/ARTIFACTS.md envmap/). */
+#ifndef GMM_TAPS
+#define GMM_TAPS 16
+#endif
+#ifndef GMM_TAP_C
+#define GMM_TAP_C 1.0f
+#endif
+/* 1: carry each grid view's lobes along with its mirror direction to the pixel's (fixes the
+ * nearest-view quantisation: up to half a θ step, and 22.5° of azimuth for 8 φ views). */
+#ifndef GMM_ROTATE
+#define GMM_ROTATE 1
+#endif
+/* 1: independent fits blend the radiance of the 2 (4 for φ grids) neighbouring views instead
+ * of using the nearest one (+1–3 dB, 2–4× the cost; off by default). */
+#ifndef GMM_VIEW_BLEND
+#define GMM_VIEW_BLEND 0
+#endif
+
+/* Orthonormal basis around unit a (Duff et al. 2017). */
+inline void gmm_basis(float3 a, float3 *u, float3 *v) {
+    float s = a.z >= 0.0f ? 1.0f : -1.0f;
+    float p = -1.0f / (s + a.z);
+    float q = a.x * a.y * p;
+    *u = (float3)(1.0f + s * a.x * a.x * p, s * q, -s * a.x);
+    *v = (float3)(q, s + a.y * a.y * p, -a.y);
+}
+
+/* cube_mip's trilinear fetch between levels l0 and l1 = l0 + 1 (weight f), the face
+ * coordinates computed once (the bordered per-level addressing of cube_bilinear). */
+inline float3 gmm_trilinear(__global const float4 *mip, int off0, int n0, int off1, int n1,
+                            float f, float3 d) {
+    float s, t;
+    int face = cube_coords(d, &s, &t);
+    float3 c = (float3)(0.0f);
+    for (int l = 0; l < 2; ++l) {
+        int n = l ? n1 : n0;
+        int w = n + 2;
+        float u = clamp(s * (float)n + 0.5f, 0.5f, (float)n + 0.5f);
+        float v = clamp(t * (float)n + 0.5f, 0.5f, (float)n + 0.5f);
+        float j0f = floor(u), i0f = floor(v);
+        float fx = u - j0f, fy = v - i0f;
+        int j0 = min((int)j0f, n), i0 = min((int)i0f, n);
+        __global const float4 *row0 = mip + (l ? off1 : off0) + (face * w + i0) * w + j0;
+        __global const float4 *row1 = row0 + w;
+        float4 x = mix(mix(row0[0], row0[1], fx), mix(row1[0], row1[1], fx), fy);
+        c += (l ? f : 1.0f - f) * x.xyz;
+        if (f <= 0.0f) break;
+    }
+    return c;
+}
+
+/* ∫ vMF(ω; a, κ) L(ω) dω from the box MIP chain (paper 000 eq 6–10, made lobe-shaped).
+ * GMM_TAPS == 1: paper 000's single trilinear lookup at the eq 10 level (a box of ~Ω_s: its
+ * shape and grid alignment, not the lobe's, set the result). Otherwise GMM_TAPS equal-weight
+ * taps at the vMF's radial quantiles (golden-angle azimuths), each a trilinear fetch at the
+ * level whose texel is h = GMM_TAP_C·σ (σ² = 1/κ, eq 9 distortion); the taps follow a vMF of
+ * variance σ² − v_f, v_f = h²/4 the variance of the box+bilinear (+ level blend) filter, so
+ * that both add up to the lobe's σ². Mirrored by sgpipe.envmap.mip.MipChain.lobe_integral. */
+inline float3 gmm_lobe_integral(__global const float4 *mip, __global const int *off,
+                                __global const int *res, int nlev, float3 a, float kappa,
+                                float coverage) {
+#if GMM_TAPS == 1
+    return cube_mip(mip, off, res, nlev, a, cube_lobe_lod(a, kappa, coverage, res[0]));
+#else
+    float sig2 = 1.0f / fmax(kappa, 1e-4f);
+    float om0 = cube_texel_solid_angle(a, res[0]);          /* finest texel: h0² (sr) */
+    float lod = clamp(0.5f * log2(GMM_TAP_C * GMM_TAP_C * sig2 / om0), 0.0f, (float)(nlev - 1));
+    float l0 = floor(lod), f = lod - l0;
+    float vf = 0.25f * om0 * exp2(2.0f * l0) * (1.0f + 3.0f * f);
+    /* a lobe within the finest texel's filter: the taps would all hit the same 2×2 texels */
+    if (sig2 <= 0.5f * vf && lod <= 0.0f)
+        return cube_bilinear(mip, off[0], res[0], a);
+    float kp = 1.0f / fmax(sig2 - vf, 0.1f * sig2);
+    int i0 = (int)l0, i1 = min(i0 + 1, nlev - 1);
+    int off0 = off[i0], n0 = res[i0], off1 = off[i1], n1 = res[i1];
+    float e2 = exp(-2.0f * kp);
+    float3 bu, bv;
+    gmm_basis(a, &bu, &bv);
+    float3 acc = (float3)(0.0f);
+    float cp = 1.0f, sp = 0.0f;                 /* azimuth i·golden angle, by recurrence */
+    const float cg = -0.7373688781f, sg = -0.6754902942f;
+    for (int i = 0; i < GMM_TAPS; ++i) {
+        float u1 = ((float)i + 0.5f) / (float)GMM_TAPS;
+        float w = clamp(1.0f + log(u1 + (1.0f - u1) * e2) / kp, -1.0f, 1.0f);
+        float r = sqrt(fmax(0.0f, 1.0f - w * w));
+        float3 d = normalize(r * cp * bu + r * sp * bv + w * a);
+        float c2 = cp * cg - sp * sg;
+        sp = sp * cg + cp * sg; cp = c2;
+        acc += gmm_trilinear(mip, off0, n0, off1, n1, f, d);
+    }
+    return acc * (1.0f / (float)GMM_TAPS);
+#endif
+}
+
+/* The shortest-arc rotation taking unit a to unit b, applied to v (a·b > −1). */
+inline float3 rotate_between(float3 a, float3 b, float3 v) {
+    float c = dot(a, b);
+    float3 x = cross(a, b);
+    return v * c + cross(x, v) + x * (dot(x, v) / fmax(1.0f + c, 1e-6f));
+}
 
 #define GMM_NT 27
 #define GMM_NP 28
@@ -80,41 +185,57 @@ __kernel void gmm_shade(
         if (ph < 0.0f) ph += 2.0f * 3.14159265358979f;
         float tc = clamp(th / fmax(m[GMM_TMAX], 1e-6f) * (float)(nt - 1), 0.0f, (float)(nt - 1));
         float pc = np > 1 ? ph / (2.0f * 3.14159265358979f) * (float)np : 0.0f;
+        /* Coherent fits (lobe k matches across views): lobes interpolated bilinearly.
+         * Independent fits: the radiance of the neighbouring views' mixtures is blended
+         * (GMM_VIEW_BLEND; else the nearest view). Either way each grid view's lobes are first
+         * carried along with its mirror direction to the pixel's (GMM_ROTATE). */
         int coherent = (gflags & 1) && interp;
-        int t0 = coherent ? min((int)floor(tc), max(nt - 2, 0)) : (int)(tc + 0.5f);
-        float ft = coherent && nt > 1 ? tc - (float)t0 : 0.0f;
-        int p0 = coherent ? (int)floor(pc) : (int)(pc + 0.5f);
-        float fp = coherent && np > 1 ? pc - floor(pc) : 0.0f;
+        int blend = coherent || (interp && GMM_VIEW_BLEND);
+        int t0 = blend ? min((int)floor(tc), max(nt - 2, 0)) : (int)(tc + 0.5f);
+        float ft = blend && nt > 1 ? tc - (float)t0 : 0.0f;
+        int p0 = blend ? (int)floor(pc) : (int)(pc + 0.5f);
+        float fp = blend && np > 1 ? pc - floor(pc) : 0.0f;
         p0 = np > 1 ? p0 % np : 0;
         int t1 = min(t0 + 1, nt - 1), p1 = np > 1 ? (p0 + 1) % np : 0;
         float w[4] = {(1 - ft) * (1 - fp), ft * (1 - fp), (1 - ft) * fp, ft * fp};
         int tt[4] = {t0, t1, t0, t1}, pp[4] = {p0, p0, p1, p1};
-        for (int k = 0; k < K; ++k) {
-            float3 alpha = (float3)(0.0f), axis = (float3)(0.0f);
-            float kappa = 0.0f;
-            for (int c = 0; c < 4; ++c) {
-                if (w[c] <= 0.0f) continue;
-                float phv = np > 1 ? 2.0f * 3.14159265358979f * (float)pp[c] / (float)np : ph;
-                float3 a, ax; float kp;
-                gmm_lobe(gmm, base, np, K, tt[c], pp[c], k, phv, &a, &kp, &ax);
-                alpha += w[c] * a; kappa += w[c] * kp; axis += w[c] * ax;
-            }
-            if (kappa <= 0.0f || dot(axis, axis) < 1e-12f) continue;
-            axis = normalize(axis);
-            float3 ag = quat_rotate(q, axis);
-            float3 aw = normalize(to_world(ag, T, B, N));
-            float3 scale = with_diffuse_lobes ? kd_ratio : ks_ratio;
-            float vis_f = (flags & 4) ? 1.0f : fh_hat(vis_theta(&vis, ag), kappa);
-            float lod = cube_lobe_lod(aw, kappa, coverage, mip_res[0]);
-            if (!(flags & 2))
-                col += alpha * scale * vis_f * env_scale * cube_mip(mip, mip_off, mip_res, mip_n, aw, lod);
-            for (int l = 0; l < n_lights; ++l) {
-                SG Lw = light_sg(lights[2 * l], lights[2 * l + 1], x);
-                float3 lg = to_local(Lw.p, T, B, N);
-                float3 E = sg_integral(Lw);
-                float pdf = vmf_to_sg_mu(kappa) * exp(kappa * (dot(axis, quat_rotate(qi, lg)) - 1.0f));
-                float v = (flags & 4) ? 1.0f : fh_hat(vis_theta(&vis, lg), Lw.lam);
-                col += alpha * scale * pdf * E * v;
+        float3 mpix = (float3)(-op.x, -op.y, op.z);
+        float3 scale = with_diffuse_lobes ? kd_ratio : ks_ratio;
+        int n_pass = coherent ? 1 : 4;
+        for (int pass = 0; pass < n_pass; ++pass) {
+            if (!coherent && w[pass] <= 0.0f) continue;
+            for (int k = 0; k < K; ++k) {
+                float3 alpha = (float3)(0.0f), axis = (float3)(0.0f);
+                float kappa = 0.0f, wsum = 0.0f;
+                for (int c = coherent ? 0 : pass; c < (coherent ? 4 : pass + 1); ++c) {
+                    if (w[c] <= 0.0f) continue;
+                    float phv = np > 1 ? 2.0f * 3.14159265358979f * (float)pp[c] / (float)np : ph;
+                    float3 a, ax; float kp;
+                    gmm_lobe(gmm, base, np, K, tt[c], pp[c], k, phv, &a, &kp, &ax);
+#if GMM_ROTATE
+                    float tv = m[GMM_TMAX] * (float)tt[c] / (float)max(nt - 1, 1);
+                    float3 mg = (float3)(-sin(tv) * cos(phv), -sin(tv) * sin(phv), cos(tv));
+                    ax = rotate_between(mg, mpix, ax);
+#endif
+                    alpha += w[c] * a; kappa += w[c] * kp; axis += w[c] * ax; wsum += w[c];
+                }
+                kappa /= fmax(wsum, 1e-12f);       /* alpha keeps the pass weight */
+                if (kappa <= 0.0f || dot(axis, axis) < 1e-12f) continue;
+                axis = normalize(axis);
+                float3 ag = quat_rotate(q, axis);
+                float3 aw = normalize(to_world(ag, T, B, N));
+                float vis_f = (flags & 4) ? 1.0f : fh_hat(vis_theta(&vis, ag), kappa);
+                if (!(flags & 2))
+                    col += alpha * scale * vis_f * env_scale
+                           * gmm_lobe_integral(mip, mip_off, mip_res, mip_n, aw, kappa, coverage);
+                for (int l = 0; l < n_lights; ++l) {
+                    SG Lw = light_sg(lights[2 * l], lights[2 * l + 1], x);
+                    float3 lg = to_local(Lw.p, T, B, N);
+                    float3 E = sg_integral(Lw);
+                    float pdf = vmf_to_sg_mu(kappa) * exp(kappa * (dot(axis, quat_rotate(qi, lg)) - 1.0f));
+                    float v = (flags & 4) ? 1.0f : fh_hat(vis_theta(&vis, lg), Lw.lam);
+                    col += alpha * scale * pdf * E * v;
+                }
             }
         }
     }
