@@ -58,6 +58,8 @@ class PyramidSettings:
     tail_dim: float = 4.5                # kernel cut at e^{−T²/2} for the dim layer
     tail_bright: float = 0.0             # 0 = from the bright layer's dynamic range (4.5 … 7)
     tile: int = 4
+    max_points: int = 0                  # a bright layer of at most this many texels is kept as
+                                         # exact point masses instead of pyramid levels
 
 
 def pyramid_levels(n_finest: int, s: PyramidSettings) -> tuple[np.ndarray, np.ndarray]:
@@ -147,6 +149,18 @@ class Pyramid:
     ratio: float
     info: dict = field(default_factory=dict)
     samples: list[np.ndarray] | None = None   # per level (6·(n+2), n+2, 3) V samples, border 1
+    # sparse bright texels kept out of the levels: Γ_L += Σ_k E_k e^{λ(c_k·p − 1)} exactly
+    point_dirs: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    point_energy: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+
+    def points_gamma(self, P: np.ndarray, lam: np.ndarray) -> np.ndarray:
+        """Σ_k E_k e^{λ(c_k·p − 1)} of the point set at unit P (M, 3), λ (M,) → (M, 3)."""
+        out = np.zeros((len(P), 3))
+        if len(self.point_dirs):
+            for a in range(0, len(P), 4096):
+                w = np.exp(lam[a:a + 4096, None] * (P[a:a + 4096] @ self.point_dirs.T - 1.0))
+                out[a:a + 4096] = w @ self.point_energy
+        return out
 
     @property
     def border(self) -> int:
@@ -186,6 +200,7 @@ class Pyramid:
                 w = (mean_resultant(lamv[sel]) / mean_resultant(self.lambdas[-1]))[:, None]
                 va = np.where(x[sel, None] > L - 1, self.mean + w * (va - self.mean), va)
             out[sel] = va
+        out += self.points_gamma(P, lamv) / sg_norm(lamv)[:, None]
         out = out.reshape(shape + (3,))
         return out if normalized else out * np.broadcast_to(sg_norm(lam), shape)[..., None]
 
@@ -196,7 +211,7 @@ class Pyramid:
         p = np.asarray(p, float)
         lam = np.asarray(lam, float)
         shape = np.broadcast_shapes(p.shape[:-1], lam.shape)
-        P = np.broadcast_to(p, shape + (3,)).reshape(-1, 3)
+        P = np.ascontiguousarray(np.broadcast_to(p, shape + (3,)).reshape(-1, 3))
         lamv = np.broadcast_to(lam, shape).reshape(-1)
         out = np.empty((len(P), 3))
         lam0 = self.lambdas[0]
@@ -218,6 +233,7 @@ class Pyramid:
             for l in np.unique(lev):
                 sel = idx[lev == l]
                 out[sel] = self._hermite(l, P[sel], lamv[sel], x[sel] - l)
+        out += self.points_gamma(P, lamv) / sg_norm(lamv)[:, None]
         out = out.reshape(shape + (3,))
         if normalized:
             return out
@@ -253,7 +269,12 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     dirs = cube_texel_dirs_jit(n_fin)
     energy = cube * cubemap_solid_angles(n_fin)[..., None]
     dim = _MomentMip(_point_masses(dirs, energy, ~bright))
-    brt = _MomentMip(_point_masses(dirs, energy, bright)) if bright.any() else None
+    n_bright = int(bright.sum())
+    as_points = 0 < n_bright <= s.max_points
+    point_dirs, point_energy = np.zeros((0, 3)), np.zeros((0, 3))
+    if as_points:       # a sun / a few lamps: exact at every λ, no λ interpolation error
+        point_dirs, point_energy = dirs[bright].copy(), energy[bright].copy()
+    brt = _MomentMip(_point_masses(dirs, energy, bright)) if n_bright and not as_points else None
     del dirs
     lum = cube.sum(-1)
     med = max(float(np.median(lum)), 1e-3 * float(lum.mean()), 1e-30)
@@ -284,8 +305,11 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         dim.release_below(dim.pick(nxt, s.src_texels_per_sigma))
         if brt is not None:
             brt.release_below(brt.pick(nxt, s.bright_src_texels_per_sigma))
-    mean = energy.sum(axis=(0, 1, 2)) / (4.0 * np.pi)
-    info = {"tau_bright": tau, "bright_texels": int(bright.sum()), "tail_bright": t_bright,
-            "tail_dim": s.tail_dim, "build_s": time.perf_counter() - t0}
+    # mean of what the levels hold (the map minus the point set): their λ → 0 limit
+    mean = (energy.sum(axis=(0, 1, 2)) - point_energy.sum(axis=0)) / (4.0 * np.pi)
+    info = {"tau_bright": tau, "bright_texels": n_bright, "tail_bright": t_bright,
+            "tail_dim": s.tail_dim, "points": len(point_dirs),
+            "build_s": time.perf_counter() - t0}
     return Pyramid(lambdas=lams, face_res=res, values=values, slopes=slopes, mean=mean,
-                   ratio=s.ratio, info=info, samples=samples)
+                   ratio=s.ratio, info=info, samples=samples, point_dirs=point_dirs,
+                   point_energy=point_energy)

@@ -46,7 +46,9 @@ def pyramid_index(pyr: Pyramid) -> dict:
             "face_res": np.asarray(pyr.face_res, np.int32),
             "offsets": offs(pyr.samples), "border": np.int32(1),
             "coef_offsets": offs(pyr.values), "coef_border": np.int32(BORDER),
-            "mean": np.asarray(pyr.mean, np.float64), "ratio": np.float64(pyr.ratio)}
+            "mean": np.asarray(pyr.mean, np.float64), "ratio": np.float64(pyr.ratio),
+            "point_dirs": np.asarray(pyr.point_dirs, np.float64).reshape(-1, 3),
+            "point_energy": np.asarray(pyr.point_energy, np.float64).reshape(-1, 3)}
 
 
 def load_pyramid(folder: str | Path) -> Pyramid:
@@ -63,9 +65,11 @@ def load_pyramid(folder: str | Path) -> Pyramid:
                 raise BadInput(f"level {l} has shape {img.shape}, index says face_res {n}",
                                file=folder / level_name(l, kind))
             dst.append(img)
+    points = {k: np.asarray(idx[k], np.float64).reshape(-1, 3) if k in idx else np.zeros((0, 3))
+              for k in ("point_dirs", "point_energy")}
     return Pyramid(lambdas=idx["lambdas"], face_res=idx["face_res"].astype(np.int64),
                    values=values, slopes=slopes, mean=idx["mean"], ratio=float(idx["ratio"]),
-                   samples=samples)
+                   samples=samples, **points)
 
 
 def mip_files(cube: MipChain, dp: MipChain):
