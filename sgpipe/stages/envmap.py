@@ -44,7 +44,8 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
                                    texels_per_sigma=e.pyramid_texels_per_sigma,
                                    lambda_min=e.pyramid_lambda_min,
                                    src_texels_per_sigma=e.pyramid_source_texels_per_sigma,
-                                   bright_factor=e.pyramid_bright_factor)
+                                   bright_factor=e.pyramid_bright_factor,
+                                   max_points=e.pyramid_max_points)
         pyr = build_pyramid(cube, settings)
         run.timings["pyramid_s"] = time.perf_counter() - t
         for name, img, meta, png in store.pyramid_files(pyr):
@@ -53,6 +54,7 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
         run.report["pyramid_levels"] = len(pyr.lambdas)
         run.report["pyramid_lambda0"] = float(pyr.lambdas[0])
         run.report["pyramid_bright_texels"] = pyr.info["bright_texels"]
+        run.report["pyramid_points"] = pyr.info["points"]
 
         t = time.perf_counter()
         cube_chain = mip.build_cube_chain(cube)
