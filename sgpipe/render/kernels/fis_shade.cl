@@ -28,15 +28,6 @@ inline uint hash_u32(uint x) {
     return x;
 }
 
-/* Orthonormal basis around unit a (Duff et al. 2017). */
-inline void basis_around(float3 a, float3 *u, float3 *v) {
-    float s = a.z >= 0.0f ? 1.0f : -1.0f;
-    float p = -1.0f / (s + a.z);
-    float q = a.x * a.y * p;
-    *u = (float3)(1.0f + s * a.x * a.x * p, s * q, -s * a.x);
-    *v = (float3)(q, s + a.y * a.y * p, -a.y);
-}
-
 /* vMF sample around `a` with concentration κ (Jakob 2012's stable inversion). */
 inline float3 vmf_sample(float3 a, float kappa, float u1, float u2) {
     float w = 1.0f + log(u1 + (1.0f - u1) * exp(-2.0f * kappa)) / kappa;

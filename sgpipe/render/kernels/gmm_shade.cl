@@ -34,15 +34,6 @@
 #define GMM_VIEW_BLEND 0
 #endif
 
-/* Orthonormal basis around unit a (Duff et al. 2017). */
-inline void gmm_basis(float3 a, float3 *u, float3 *v) {
-    float s = a.z >= 0.0f ? 1.0f : -1.0f;
-    float p = -1.0f / (s + a.z);
-    float q = a.x * a.y * p;
-    *u = (float3)(1.0f + s * a.x * a.x * p, s * q, -s * a.x);
-    *v = (float3)(q, s + a.y * a.y * p, -a.y);
-}
-
 /* cube_mip's trilinear fetch between levels l0 and l1 = l0 + 1 (weight f), the face
  * coordinates computed once (the bordered per-level addressing of cube_bilinear). */
 inline float3 gmm_trilinear(__global const float4 *mip, int off0, int n0, int off1, int n1,
@@ -93,7 +84,7 @@ inline float3 gmm_lobe_integral(__global const float4 *mip, __global const int *
     int off0 = off[i0], n0 = res[i0], off1 = off[i1], n1 = res[i1];
     float e2 = exp(-2.0f * kp);
     float3 bu, bv;
-    gmm_basis(a, &bu, &bv);
+    basis_around(a, &bu, &bv);
     float3 acc = (float3)(0.0f);
     float cp = 1.0f, sp = 0.0f;                 /* azimuth i·golden angle, by recurrence */
     const float cg = -0.7373688781f, sg = -0.6754902942f;

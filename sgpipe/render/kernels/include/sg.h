@@ -71,6 +71,15 @@ inline float3 quat_rotate(float4 q, float3 v) {
     return v + q.w * t + cross(u, t);
 }
 
+/* Orthonormal basis around unit a (Duff et al. 2017). */
+inline void basis_around(float3 a, float3 *u, float3 *v) {
+    float s = a.z >= 0.0f ? 1.0f : -1.0f;
+    float p = -1.0f / (s + a.z);
+    float q = a.x * a.y * p;
+    *u = (float3)(1.0f + s * a.x * a.x * p, s * q, -s * a.x);
+    *v = (float3)(q, s + a.y * a.y * p, -a.y);
+}
+
 inline float3 to_local(float3 d, float3 t, float3 b, float3 n) { return (float3)(dot(d, t), dot(d, b), dot(d, n)); }
 inline float3 to_world(float3 d, float3 t, float3 b, float3 n) { return d.x * t + d.y * b + d.z * n; }
 
