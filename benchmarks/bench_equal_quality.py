@@ -12,6 +12,10 @@ Scene: the figures' sphere (Ward α = 0.1, kd = 0, ks = 1) under data_samples/st
 4. sg's true squared error: MSE(sg, R*) − mean σ*² (R* = truth + noise). The reference needs
    n = SPP_B · mean σ_B² / that error samples per pixel for the same PSNR; its time is n × slope.
 main() prints the numbers and returns 0 when time_ref / time_sg ≥ 100.
+Measured (2 shared cores): sg with Wang09's isotropic warp, C* ⊗ and the bilinear Γ_L path
+19.3 dB (11–22×); with the anisotropic warp (3 sub-lobes), the Gaussian cosine product and the
+accurate Γ_L path (sg_shade.cl) 31.7 dB true-error PSNR, 9.6 ms/frame, 160–290×. What remains
+is mostly grazing reflections (n·v ≈ 0.2–0.35, −12 %): the warped lobe bends there.
 """
 
 from __future__ import annotations

@@ -2,9 +2,13 @@
 OpenCL kernels read: the normalised Γ_L pyramid (Wang09 eq 34–35), the box MIP chain (paper 000
 eq 6–11, FIS) and the diffuse SG light fit (Wang09 §6). Read from disk, not via sgpipe.envmap.
 
-Packed cubemap chain: float32 (T, 4) texels (RGB + 0), levels in order, each level in the
-bordered "cube6v_b1" layout (6·(n+2) rows × (n+2) columns); `offsets[l]` is level l's first
-texel, `res[l]` its face resolution n.
+Packed cubemap chain (`CubeChain`): float32 (T, 4) texels (RGB + 0), levels in order, each level
+in the bordered "cube6v_b1" layout (6·(n+2) rows × (n+2) columns); `offsets[l]` is level l's
+first texel, `res[l]` its face resolution n.
+
+Packed accurate Γ_L chain (`GammaChain`, what `sg` reads): per level the "cube6v_b2" cubic
+B-spline coefficients of V (`coef_LL`) and of m = ∂ln Γ_L/∂ln λ (`slope_LL`), interleaved per
+texel as two float4 (V, 0), (m, 0): texel k of the chain is float4 2k (V) and 2k + 1 (m).
 """
 
 from __future__ import annotations
@@ -17,10 +21,61 @@ import numpy as np
 from sgpipe.errors import BadInput
 from sgpipe.io import read_exr, read_npz
 
+GAMMA_BORDER = 2     # border of coef_LL / slope_LL (cubic B-spline taps −1..+2)
+
 
 def scalar(a) -> float:
     """A stored scalar as float (sgpipe.io.write_npz currently stores () arrays as (1,))."""
     return float(np.asarray(a, np.float64).reshape(-1)[0])
+
+
+def sg_norm(lam):
+    """S(λ) = 2π(1 − e^{−2λ})/λ (Wang09 eq 4 with one lobe)."""
+    lam = np.asarray(lam, np.float64)
+    ls = np.maximum(lam, 1e-12)
+    return np.where(lam < 1e-8, 4.0 * np.pi, -2.0 * np.pi * np.expm1(-2.0 * ls) / ls)
+
+
+def dln_sg_norm(lam):
+    """∂ln S/∂ln λ = 2λ/(e^{2λ} − 1) − 1: the log-slope of Γ_L for a constant environment."""
+    lam = np.asarray(lam, np.float64)
+    x = np.clip(2.0 * lam, 1e-300, 700.0)
+    return np.where(lam < 1e-8, -lam, x / np.expm1(x) - 1.0)
+
+
+def bordered_dirs(n: int, border: int) -> np.ndarray:
+    """Unit directions (6·(n+2B), n+2B, 3) of every texel of a "cube6v_bB" level."""
+    from sgpipe.core.maps import cubemap_dir
+    c = (np.arange(n + 2 * border) - border + 0.5) / n
+    f = np.arange(6)[:, None, None]
+    d = cubemap_dir(f, c[None, None, :], c[None, :, None])
+    return d.reshape(6 * (n + 2 * border), n + 2 * border, 3)
+
+
+def bilinear_b1(img: np.ndarray, n: int, d: np.ndarray) -> np.ndarray:
+    """Bilinear lookup of a "cube6v_b1" level (6·(n+2), n+2, C) at directions (..., 3)."""
+    from sgpipe.core.maps import dir_to_cubemap
+    face, s, t = dir_to_cubemap(np.asarray(d, float))
+    w = n + 2
+    im = np.asarray(img, np.float64).reshape(6, w, w, -1)
+    u = np.clip(s * n + 0.5, 0.5, n + 0.5)
+    v = np.clip(t * n + 0.5, 0.5, n + 0.5)
+    j0 = np.minimum(np.floor(u).astype(int), n)
+    i0 = np.minimum(np.floor(v).astype(int), n)
+    fx, fy = (u - j0)[..., None], (v - i0)[..., None]
+    return ((1 - fx) * (1 - fy) * im[face, i0, j0] + fx * (1 - fy) * im[face, i0, j0 + 1]
+            + (1 - fx) * fy * im[face, i0 + 1, j0] + fx * fy * im[face, i0 + 1, j0 + 1])
+
+
+def bspline_prefilter(img: np.ndarray, n: int, border: int) -> np.ndarray:
+    """Per-face cubic B-spline coefficients (mirror boundary) interpolating the samples of a
+    bordered level at every texel centre: (6·(n+2B), n+2B, C) → same shape."""
+    from scipy.ndimage import spline_filter1d
+    w = n + 2 * border
+    f = np.asarray(img, np.float64).reshape(6, w, w, -1)
+    for ax in (1, 2):
+        f = spline_filter1d(f, order=3, axis=ax, mode="mirror")
+    return f.reshape(6 * w, w, -1)
 
 
 @dataclass
@@ -59,10 +114,80 @@ class CubeChain:
 
 
 @dataclass
+class GammaChain:
+    """The accurate Γ_L pyramid (docs/ARTIFACTS.md, accurate path): per level the border-2
+    B-spline coefficients of V and m interleaved as float4 pairs (2T, 4); offsets/res per level
+    (offsets count texel pairs)."""
+
+    texels: np.ndarray   # (2T, 4) float32: (V, 0), (m, 0) per texel
+    offsets: np.ndarray  # (L,) int32 first texel (pair) of each level
+    res: np.ndarray      # (L,) int32 face resolution (without border)
+
+    @classmethod
+    def from_levels(cls, values: list[np.ndarray], slopes: list[np.ndarray]) -> "GammaChain":
+        """From `coef_LL` and `slope_LL` images, each (6·(n+4), n+4, 3)."""
+        res, offs, parts, off = [], [], [], 0
+        for v, m in zip(values, slopes, strict=True):
+            v = np.asarray(v, np.float32)
+            m = np.asarray(m, np.float32)
+            w = v.shape[1]
+            if v.ndim != 3 or v.shape[0] != 6 * w or w < 2 * GAMMA_BORDER + 1 or m.shape != v.shape:
+                raise ValueError(f"not a border-2 cubemap level: shapes {v.shape}, {m.shape}")
+            pair = np.zeros((v.shape[0] * w, 2, 4), np.float32)
+            pair[:, 0, :3] = v[..., :3].reshape(-1, 3)
+            pair[:, 1, :3] = m[..., :3].reshape(-1, 3)
+            parts.append(pair.reshape(-1, 4))
+            offs.append(off)
+            res.append(w - 2 * GAMMA_BORDER)
+            off += v.shape[0] * w
+        return cls(np.concatenate(parts), np.asarray(offs, np.int32), np.asarray(res, np.int32))
+
+    @classmethod
+    def from_samples(cls, samples: list[np.ndarray], lambdas) -> "GammaChain":
+        """Derived from plain V samples ("cube6v_b1" levels: folders or test environments
+        without coef/slope files): V at the border-2 texel centres (stored samples, the outer
+        ring sampled bilinearly at its own direction), m = ∂ln V/∂ln λ by central differences
+        between neighbouring levels + ∂ln S/∂ln λ (exact for a constant map), both prefiltered
+        to interpolating cubic B-spline coefficients."""
+        lam = np.asarray(lambdas, np.float64)
+        res = [np.asarray(s).shape[1] - 2 for s in samples]
+        vals, slps = [], []
+        for l, (smp, n) in enumerate(zip(samples, res)):
+            d = bordered_dirs(n, GAMMA_BORDER)
+            w = n + 2 * GAMMA_BORDER
+
+            def at(k):
+                return bilinear_b1(samples[k], res[k], d)
+            v = at(l).reshape(6, w, w, 3)
+            v[:, 1:-1, 1:-1] = np.asarray(smp, np.float64)[..., :3].reshape(6, n + 2, n + 2, 3)
+            v = v.reshape(6 * w, w, 3)
+            ka, kb = max(l - 1, 0), min(l + 1, len(samples) - 1)
+            m = np.full_like(v, float(dln_sg_norm(lam[l])))
+            if kb > ka:
+                va = v if ka == l else at(ka)
+                vb = v if kb == l else at(kb)
+                ok = (va > 0) & (vb > 0)
+                dv = (np.log(np.where(ok, va, 1.0)) - np.log(np.where(ok, vb, 1.0)))
+                m += np.where(ok, dv / np.log(lam[ka] / lam[kb]), 0.0)
+            vals.append(bspline_prefilter(v, n, GAMMA_BORDER))
+            slps.append(bspline_prefilter(m, n, GAMMA_BORDER))
+        return cls.from_levels(vals, slps)
+
+    @classmethod
+    def constant(cls, rgb, face_res: int, lambdas) -> "GammaChain":
+        """A uniform map: V = rgb at every level, m = ∂ln S/∂ln λ (Γ_L = S(λ)·rgb)."""
+        rgb = np.broadcast_to(np.asarray(rgb, np.float32), (3,))
+        w = face_res + 2 * GAMMA_BORDER
+        vals = [np.broadcast_to(rgb, (6 * w, w, 3)).copy() for _ in lambdas]
+        slps = [np.full((6 * w, w, 3), dln_sg_norm(lam), np.float32) for lam in lambdas]
+        return cls.from_levels(vals, slps)
+
+
+@dataclass
 class EnvData:
     """Everything the kernels need about distant lighting."""
 
-    pyramid: CubeChain
+    pyramid: CubeChain       # plain V samples ("cube6v_b1", the cheap path; tests, previews)
     lambdas: np.ndarray      # (L,) float32, strictly decreasing
     log_ratio: float         # ln(λ_l / λ_{l+1})
     mean: np.ndarray         # (3,) mean radiance over S² (the λ → 0 level)
@@ -70,6 +195,16 @@ class EnvData:
     light_axes: np.ndarray   # (K, 3) world unit axes of the diffuse SG light fit
     light_lambda: np.ndarray  # (K,)
     light_mu: np.ndarray     # (K, 3)
+    gamma: GammaChain | None = None   # accurate Γ_L chain (sg); derived from `pyramid` if None
+
+    def __post_init__(self):
+        if self.gamma is None:
+            p = self.pyramid
+            levels = []
+            for off, n in zip(p.offsets, p.res):
+                w = int(n) + 2
+                levels.append(p.texels[int(off):int(off) + 6 * w * w, :3].reshape(6 * w, w, 3))
+            self.gamma = GammaChain.from_samples(levels, self.lambdas)
 
     @property
     def mip_N(self) -> int:
@@ -87,22 +222,25 @@ class EnvData:
 
     @classmethod
     def constant(cls, rgb, face_res: int = 4) -> "EnvData":
-        """A uniform environment of radiance `rgb` (white furnace), exact in all representations."""
+        """A uniform environment of radiance `rgb` (white furnace), exact in all representations
+        (Γ_L = S(λ)·rgb: V = rgb and m = ∂ln S/∂ln λ at every level)."""
         rgb = np.broadcast_to(np.asarray(rgb, np.float32), (3,)).copy()
         levels = max(1, int(np.log2(face_res)) + 1)
+        lams = np.array([face_res ** 2 / 4.0, face_res ** 2 / 8.0], np.float32)
         # A λ → 0 SG is the constant: μ e^{λ(v·p−1)} → μ.
-        return cls(pyramid=CubeChain.constant(rgb, face_res, 2),
-                   lambdas=np.array([face_res ** 2 / 4.0, face_res ** 2 / 8.0], np.float32),
+        return cls(pyramid=CubeChain.constant(rgb, face_res, 2), lambdas=lams,
                    log_ratio=float(np.log(2.0)), mean=rgb,
                    mip=CubeChain.constant(rgb, face_res, levels),
                    light_axes=np.array([[0.0, 1.0, 0.0]], np.float32),
                    light_lambda=np.array([1e-4], np.float32),
-                   light_mu=rgb[None, :].copy())
+                   light_mu=rgb[None, :].copy(),
+                   gamma=GammaChain.constant(rgb, face_res, lams.astype(np.float64)))
 
     @classmethod
     def load(cls, folder: str | Path) -> "EnvData":
-        """Read `<out>/envmap/` (pyramid.npz + pyramid/level_LL.exr, mip.npz + mip/cube_MM.exr,
-        light_sg.npz)."""
+        """Read `<out>/envmap/` (pyramid.npz + pyramid/{level,coef,slope}_LL.exr, mip.npz +
+        mip/cube_MM.exr, light_sg.npz). Without coef/slope files the accurate chain is derived
+        from the plain levels (GammaChain.from_samples)."""
         folder = Path(folder)
         if not folder.is_dir():
             raise BadInput("environment artifacts not found (run `sgpipe precompute` first)",
@@ -110,8 +248,24 @@ class EnvData:
         idx = read_npz(folder / "pyramid.npz", required=("lambdas", "face_res", "mean"),
                        key="envmap")
         lam = np.asarray(idx["lambdas"], np.float64)
-        levels = [read_exr(folder / "pyramid" / f"level_{i:02d}.exr", channels=(3, 4),
+        fres = np.asarray(idx["face_res"], np.int64).reshape(-1)
+        pyr = folder / "pyramid"
+        levels = [read_exr(pyr / f"level_{i:02d}.exr", channels=(3, 4),
                            key="envmap")[..., :3] for i in range(len(lam))]
+        gamma = None
+        if (pyr / "coef_00.exr").is_file():
+            vals, slps = [], []
+            for i, n in enumerate(fres):
+                w = int(n) + 2 * GAMMA_BORDER
+                for kind, dst in (("coef", vals), ("slope", slps)):
+                    img = read_exr(pyr / f"{kind}_{i:02d}.exr", channels=(3, 4),
+                                   key="envmap")[..., :3]
+                    if img.shape != (6 * w, w, 3):
+                        raise BadInput(f"shape {img.shape}, pyramid.npz face_res {n} needs "
+                                       f"{(6 * w, w, 3)}", file=pyr / f"{kind}_{i:02d}.exr",
+                                       key="envmap")
+                    dst.append(img)
+            gamma = GammaChain.from_levels(vals, slps)
         ratio = scalar(idx["ratio"]) if "ratio" in idx else (
             float(lam[0] / lam[1]) if len(lam) > 1 else 2.0)
         mip_idx = read_npz(folder / "mip.npz", required=("cube_res",), key="envmap")
@@ -124,4 +278,5 @@ class EnvData:
                    mip=CubeChain.from_levels(mips),
                    light_axes=np.asarray(lsg["axes"], np.float32).reshape(-1, 3),
                    light_lambda=np.asarray(lsg["sharpness"], np.float32).reshape(-1),
-                   light_mu=np.asarray(lsg["amplitude"], np.float32).reshape(-1, 3))
+                   light_mu=np.asarray(lsg["amplitude"], np.float32).reshape(-1, 3),
+                   gamma=gamma)

@@ -221,8 +221,8 @@ class Renderer:
             mats=dev(m.records), lobes=dev(m.lobes.reshape(-1, 4)), tables=dev(m.tables),
             gmm=dev(m.gmm), ndf_info=dev(m.ndf_info, np.int32),
             texels=dev(texels), texinfo=dev(texinfo, np.int32),
-            pyr=dev(e.pyramid.texels), pyr_off=dev(e.pyramid.offsets, np.int32),
-            pyr_res=dev(e.pyramid.res, np.int32), pyr_lam=dev(e.lambdas),
+            pyr=dev(e.gamma.texels), pyr_off=dev(e.gamma.offsets, np.int32),
+            pyr_res=dev(e.gamma.res, np.int32), pyr_lam=dev(e.lambdas),
             mip=dev(e.mip.texels), mip_off=dev(e.mip.offsets, np.int32),
             mip_res=dev(e.mip.res, np.int32),
             env_sg=dev(e.light_records().reshape(-1, 4)), lights=dev(lrec.reshape(-1, 4)))

@@ -98,4 +98,76 @@ inline float3 gamma_lookup(__global const float4 *data, __global const int *off,
     return v * sg_integral_unit(lambda);
 }
 
+/* ---- Accurate Γ_L path (docs/ARTIFACTS.md, envmap/; reference sgpipe.envmap Pyramid.lookup).
+ * Chain of "cube6v_b2" levels (border 2): per texel two float4, (V, 0) then (m, 0): the cubic
+ * B-spline coefficients of V = Γ_L/S(λ) (coef_LL) and of m = ∂ln Γ_L/∂ln λ (slope_LL); level l
+ * starts at texel pair off[l] and has face resolution res[l]. */
+
+/* Uniform cubic B-spline weights of taps −1, 0, 1, 2 at fraction t ∈ [0, 1). */
+inline float4 bspline_weights(float t) {
+    float t2 = t * t, t3 = t2 * t, u = 1.0f - t;
+    return (float4)(u * u * u, 3.0f * t3 - 6.0f * t2 + 4.0f, -3.0f * t3 + 3.0f * t2 + 3.0f * t + 1.0f,
+                    t3) * (1.0f / 6.0f);
+}
+
+/* 16-tap B-spline of one level at face coordinates (face, s, t): V, and m when `want_m`. */
+inline float3 gamma_level(__global const float4 *data, int off, int n, int face, float s, float t,
+                          int want_m, float3 *m) {
+    int w = n + 4;
+    float u = s * (float)n + 1.5f, v = t * (float)n + 1.5f;
+    float uf = floor(u), vf = floor(v);
+    float4 ws = bspline_weights(u - uf), wt = bspline_weights(v - vf);
+    int j0 = (int)uf - 1, i0 = (int)vf - 1;
+    int4 jj = 2 * clamp((int4)(j0, j0 + 1, j0 + 2, j0 + 3), 0, w - 1);
+    int4 ii = 2 * w * clamp((int4)(i0, i0 + 1, i0 + 2, i0 + 3), 0, w - 1);
+    __global const float4 *base = data + 2 * (off + face * w * w);
+#define GL_ROW(r) (ws.x * (r)[jj.x] + ws.y * (r)[jj.y] + ws.z * (r)[jj.z] + ws.w * (r)[jj.w])
+    float4 accv = wt.x * GL_ROW(base + ii.x) + wt.y * GL_ROW(base + ii.y)
+                  + wt.z * GL_ROW(base + ii.z) + wt.w * GL_ROW(base + ii.w);
+    if (want_m) {
+        __global const float4 *bm = base + 1;
+        float4 accm = wt.x * GL_ROW(bm + ii.x) + wt.y * GL_ROW(bm + ii.y)
+                      + wt.z * GL_ROW(bm + ii.z) + wt.w * GL_ROW(bm + ii.w);
+        *m = accm.xyz;
+    } else {
+        *m = (float3)(0.0f);
+    }
+#undef GL_ROW
+    return accv.xyz;
+}
+
+/* Γ_L(p, λ) (Wang09 eq 35), accurate path: λ ≥ λ_0 → S(λ)·V_0(p); between levels ℓ, ℓ+1 a cubic
+ * Hermite of ln Γ_L in ln λ with slopes m (per channel; linear V where V_ℓ or V_ℓ₊₁ ≤ 0);
+ * below λ_{L−1}: V = mean + A(λ)/A(λ_{L−1}) (V_{L−1} − mean). */
+inline float3 gamma_lookup_acc(__global const float4 *data, __global const int *off,
+                               __global const int *res, __global const float *lam, int nlev,
+                               float log_ratio, float3 mean, float3 p, float lambda) {
+    float s, t;
+    int face = cube_coords(p, &s, &t);
+    float3 mdummy;
+    if (lambda >= lam[0])
+        return gamma_level(data, off[0], res[0], face, s, t, 0, &mdummy) * sg_integral_unit(lambda);
+    if (lambda < lam[nlev - 1]) {
+        float w = mean_resultant(lambda) / mean_resultant(lam[nlev - 1]);
+        float3 vl = gamma_level(data, off[nlev - 1], res[nlev - 1], face, s, t, 0, &mdummy);
+        return (mean + w * (vl - mean)) * sg_integral_unit(lambda);
+    }
+    float x = log(lam[0] / lambda) / log_ratio;
+    int l = clamp((int)floor(x), 0, nlev - 2);
+    float tt = x - (float)l;
+    float la = lam[l], lb = lam[l + 1];
+    float3 ma, mb;
+    float3 va = gamma_level(data, off[l], res[l], face, s, t, 1, &ma);
+    float3 vb = gamma_level(data, off[l + 1], res[l + 1], face, s, t, 1, &mb);
+    int3 ok = isgreater(va, (float3)(0.0f)) & isgreater(vb, (float3)(0.0f));
+    float3 ya = log(select((float3)(1.0f), va, ok)) + log(sg_integral_unit(la));
+    float3 yb = log(select((float3)(1.0f), vb, ok)) + log(sg_integral_unit(lb));
+    float du = log(lb / la);
+    float t2 = tt * tt, t3 = t2 * tt;
+    float3 y = (2.0f * t3 - 3.0f * t2 + 1.0f) * ya + ((t3 - 2.0f * t2 + tt) * du) * ma
+               + (-2.0f * t3 + 3.0f * t2) * yb + ((t3 - t2) * du) * mb;
+    float3 lin = mix(va, vb, tt) * sg_integral_unit(lambda);
+    return select(lin, exp(y), ok);
+}
+
 #endif
