@@ -5,7 +5,8 @@
 Spheres under the sample environments (data_samples/sky_sun.exr, studio.exr) with Ward
 α ∈ {0.01, 0.05, 0.1, 0.15, 0.2}, anisotropic Ward (α_x = 0.01, α_y = 0.2) and the same α for
 Beckmann and GGX (kd = 0, ks = 1, no Fresnel: the lobes alone), rendered by `reference`, `fis`,
-`sg` and `gmm` through the real stages: one config per environment is built programmatically
+`sg`, `gmm` and `gmm1` (paper 000's single MIP lookup per lobe) through the real stages: one
+config per environment is built programmatically
 (all materials in `fit:`), `fit` and `precompute` run once, then `render` runs per material and
 method. Writes `<out>/<env>/...` (stage outputs), contact sheets (reference | method |
 difference, one row per material) and `docs/RESULTS.md` (PSNR / SSIM per method and α, ms per
@@ -30,7 +31,9 @@ from sgpipe.io import read_exr
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "data_samples"
 WARD_ALPHAS = (0.01, 0.05, 0.1, 0.15, 0.2)
-METHODS = ("fis", "sg", "gmm")
+METHODS = ("fis", "sg", "gmm", "gmm1")
+# table column → (render method, extra render keys): gmm1 = paper 000's single MIP lookup
+VARIANTS = {"gmm1": ("gmm", {"gmm_taps": 1})}
 ENVS = {"sky_sun": 0.0, "studio": -1.0}  # environment -> preview exposure (stops)
 
 
@@ -49,7 +52,7 @@ def materials(quick: bool = False) -> list[dict]:
 
 
 def build_config(env_path: Path, mats: list[dict], material: str, methods: list[str], *,
-                 size: int, spp: int, seed: int, workers: int):
+                 size: int, spp: int, seed: int, workers: int, render_extra: dict | None = None):
     """A validated root Config (through the schema, as a YAML file would be)."""
     from sgpipe.config.root import Config
     from sgpipe.config.schema import Context, build
@@ -62,7 +65,8 @@ def build_config(env_path: Path, mats: list[dict], material: str, methods: list[
         "render": {"camera": {"eye": [0.0, 0.0, 4.0], "target": [0.0, 0.0, 0.0],
                               "up": [0.0, 1.0, 0.0], "fov_deg": 32.0, "width": size,
                               "height": size},
-                   "methods": list(methods), "spp": spp, "background": False},
+                   "methods": list(methods), "spp": spp, "background": False,
+                   **(render_extra or {})},
     }
     return build(Config, raw, (), Context(file=None, lines={}))
 
@@ -151,9 +155,10 @@ def run_env(env: str, out: Path, mats: list[dict], *, size: int, spp: int, seed:
         _noise_floor(ref, ENVS.get(env, 0.0))
         row["reference"] = ref
         for meth in methods:
-            cfg = build_config(env_path, mats, m["name"], [meth], size=size, spp=spp, seed=seed,
-                               workers=workers)
-            r = _render_method(cfg, out, meth)
+            stage_meth, extra = VARIANTS.get(meth, (meth, {}))
+            cfg = build_config(env_path, mats, m["name"], [stage_meth], size=size, spp=spp,
+                               seed=seed, workers=workers, render_extra=extra)
+            r = _render_method(cfg, out, stage_meth)
             if "image" in r:
                 r.update(compare_images(r["image"], ref["image"]))
                 r["psnr_display_db"] = psnr_display(r["image"], ref["image"],

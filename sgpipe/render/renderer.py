@@ -161,13 +161,15 @@ class Renderer:
 
     def __init__(self, *, env: EnvData, materials: MaterialTable, objects: list[ObjectShading],
                  textures: Textures | None = None, lights: list[Light] = (),
-                 env_scale: float = 1.0, nv: int | None = None, fh_mode: str = "table"):
+                 env_scale: float = 1.0, nv: int | None = None, fh_mode: str = "table",
+                 gmm_taps: int = 16):
         self.ctx, self.queue = opencl.get_context()
         self.env, self.materials, self.objects = env, materials, list(objects)
         self.env_scale = float(env_scale)
         if fh_mode not in ("table", "sigmoid"):
             raise ValueError(f"fh_mode must be table or sigmoid, got {fh_mode!r}")
         self.fh_mode = fh_mode
+        self.gmm_taps = int(gmm_taps)
         vis = [o.vis for o in self.objects if o.vis is not None]
         nv = int(nv if nv is not None else max([v.coeffs.shape[1] for v in vis] or [0]))
         self.nv = -(-nv // 4) * 4          # kernels read the PCA terms as float4
@@ -238,6 +240,7 @@ class Renderer:
             d["MAX_NDF_LOBES"] = max(1, self.materials.max_lobes)
         if method == "gmm":
             d["MAX_GMM_LOBES"] = max(1, self.materials.max_gmm_lobes)
+            d["GMM_TAPS"] = max(1, self.gmm_taps)
         return d
 
     def kernel(self, method: str):

@@ -127,7 +127,7 @@ def build_scene(cfg, out_dir: str | Path, methods: list[str]) -> SceneBundle:
                                      normal_map=nmap))
     renderer = Renderer(env=env, materials=pack_materials(mats), objects=shading,
                         textures=textures, lights=lights_of(rs), env_scale=scale,
-                        fh_mode=rs.fh)
+                        fh_mode=rs.fh, gmm_taps=rs.gmm_taps)
     return SceneBundle(renderer, objects, [p for _, p in vis], latlong)
 
 

@@ -72,6 +72,10 @@ class RenderSection:
     spp: int = doc("Samples per pixel of the `reference` method.", 256, ge=1)
     fis_samples: int = doc("Samples per pixel N of `fis` (paper 000 uses about 40).", 40, ge=1,
                            le=4096)
+    gmm_taps: int = doc("gmm: trilinear MIP taps per lobe spread over the lobe's vMF (1 = paper "
+                        "000's single lobe-sized lookup, eq 6–10; 16 is 5–14 dB closer to the "
+                        "reference on the figures' spheres at about fis's cost).", 16, ge=1,
+                        le=64)
     gmm_interpolate: bool = doc("gmm: interpolate lobes between fitted views when the fit is "
                                 "coherent (else nearest view).", True)
     baseline_shadows: bool = doc("gmm/fis: apply the SSDF visibility as sg does (the papers' "
