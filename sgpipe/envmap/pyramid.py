@@ -58,7 +58,7 @@ class PyramidSettings:
     tail_dim: float = 4.5                # kernel cut at e^{−T²/2} for the dim layer
     tail_bright: float = 0.0             # 0 = from the bright layer's dynamic range (4.5 … 7)
     tile: int = 4
-    max_points: int = 0                  # a bright layer of at most this many texels is kept as
+    max_points: int = 256                # a bright layer of at most this many texels is kept as
                                          # exact point masses instead of pyramid levels
 
 

@@ -13,7 +13,7 @@ texel as two float4 (V, 0), (m, 0): texel k of the chain is float4 2k (V) and 2k
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -196,6 +196,9 @@ class EnvData:
     light_lambda: np.ndarray  # (K,)
     light_mu: np.ndarray     # (K, 3)
     gamma: GammaChain | None = None   # accurate Γ_L chain (sg); derived from `pyramid` if None
+    # point set beside the levels (pyramid.npz point_dirs / point_energy): Γ_L += Σ E e^{λ(c·p−1)}
+    point_dirs: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
+    point_energy: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
 
     def __post_init__(self):
         if self.gamma is None:
@@ -209,6 +212,14 @@ class EnvData:
     @property
     def mip_N(self) -> int:
         return int(self.mip.res[0])
+
+    def point_records(self) -> np.ndarray:
+        """(max(K, 1), 2, 4) float32: (c_k, 0), (E_k, 0) per point — the kernels' layout."""
+        k = len(self.point_dirs)
+        rec = np.zeros((max(k, 1), 2, 4), np.float32)
+        rec[:k, 0, :3] = self.point_dirs
+        rec[:k, 1, :3] = self.point_energy
+        return rec
 
     def light_records(self, scale: float = 1.0) -> np.ndarray:
         """(K, 2, 4) float32: (axis, λ), (μ·scale, 0) per lobe — the kernels' env_sg layout."""
@@ -279,4 +290,5 @@ class EnvData:
                    light_axes=np.asarray(lsg["axes"], np.float32).reshape(-1, 3),
                    light_lambda=np.asarray(lsg["sharpness"], np.float32).reshape(-1),
                    light_mu=np.asarray(lsg["amplitude"], np.float32).reshape(-1, 3),
-                   gamma=gamma)
+                   gamma=gamma, **{k: np.asarray(idx[k], np.float32).reshape(-1, 3)
+                                   for k in ("point_dirs", "point_energy") if k in idx})

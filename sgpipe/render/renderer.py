@@ -225,6 +225,7 @@ class Renderer:
             texels=dev(texels), texinfo=dev(texinfo, np.int32),
             pyr=dev(e.gamma.texels), pyr_off=dev(e.gamma.offsets, np.int32),
             pyr_res=dev(e.gamma.res, np.int32), pyr_lam=dev(e.lambdas),
+            pyr_pts=dev(e.point_records().reshape(-1, 4)),
             mip=dev(e.mip.texels), mip_off=dev(e.mip.offsets, np.int32),
             mip_res=dev(e.mip.res, np.int32),
             env_sg=dev(e.light_records().reshape(-1, 4)), lights=dev(lrec.reshape(-1, 4)))
@@ -280,6 +281,7 @@ class Renderer:
         if method == "sg":
             args = common + [b["pyr"], b["pyr_off"], b["pyr_res"], b["pyr_lam"],
                              i32(len(e.lambdas)), f32(e.log_ratio), self.env_mean,
+                             b["pyr_pts"], i32(len(e.point_dirs)),
                              b["env_sg"], i32(self.n_env_sg), f32(self.env_scale)] + lights
         else:
             args = common + [b["gmm"], b["ndf_info"], b["mip"], b["mip_off"], b["mip_res"],

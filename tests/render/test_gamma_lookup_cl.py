@@ -20,10 +20,12 @@ _SRC = """
 __kernel void t_gamma_acc(__global const float4 *data, __global const int *off,
                           __global const int *res, __global const float *lam, const int nlev,
                           const float log_ratio, const float4 mean, __global const float4 *dirs,
-                          __global const float *lams, __global float4 *out) {
+                          __global const float *lams, __global const float4 *pts,
+                          const int npts, __global float4 *out) {
     int i = get_global_id(0);
     out[i] = (float4)(gamma_lookup_acc(data, off, res, lam, nlev, log_ratio, mean.xyz,
-                                       dirs[i].xyz, lams[i]), 0.0f);
+                                       dirs[i].xyz, lams[i])
+                      + gamma_points(pts, npts, dirs[i].xyz, lams[i]), 0.0f);
 }
 """
 
@@ -32,8 +34,17 @@ def _unit(v):
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def gamma_cl(chain: GammaChain, lambdas, log_ratio, mean, dirs, lams) -> np.ndarray:
-    """Γ_L (n, 3) from the kernel for float32 directions (n, 3) and λ (n,)."""
+def _points(obj) -> np.ndarray:
+    """Point-set records (K, 2, 4) of a Pyramid or EnvData (the kernels' layout)."""
+    rec = np.zeros((max(len(obj.point_dirs), 1), 2, 4), np.float32)
+    rec[:len(obj.point_dirs), 0, :3] = obj.point_dirs
+    rec[:len(obj.point_dirs), 1, :3] = obj.point_energy
+    return rec
+
+
+def gamma_cl(chain: GammaChain, lambdas, log_ratio, mean, dirs, lams, points=None) -> np.ndarray:
+    """Γ_L (n, 3) from the kernel for float32 directions (n, 3) and λ (n,); `points`: the
+    Pyramid / EnvData whose point set is added (none if None)."""
     import pyopencl as cl
     from pyopencl import cltypes
     ctx, q = opencl.get_context()
@@ -49,7 +60,9 @@ def gamma_cl(chain: GammaChain, lambdas, log_ratio, mean, dirs, lams) -> np.ndar
         dev(chain.res, np.int32), dev(np.asarray(lambdas, np.float32)),
         np.int32(len(lambdas)), np.float32(log_ratio),
         cltypes.make_float4(float(m[0]), float(m[1]), float(m[2]), 0.0), dev(d4),
-        dev(np.asarray(lams, np.float32)), out)
+        dev(np.asarray(lams, np.float32)),
+        dev((_points(points) if points is not None else np.zeros((1, 2, 4), np.float32))
+            .reshape(-1, 4)), np.int32(0 if points is None else len(points.point_dirs)), out)
     return opencl.read_back(q, out, (n, 4))[:, :3].astype(np.float64)
 
 
@@ -76,8 +89,18 @@ def _special_dirs():
 
 @pytest.fixture(scope="module")
 def pyramid():
+    """Everything in the levels (the λ interpolation is exercised near the bright spot)."""
     envmap = pytest.importorskip("sgpipe.envmap")
-    return envmap.build_pyramid(_test_cube())
+    return envmap.build_pyramid(_test_cube(), envmap.PyramidSettings(max_points=0))
+
+
+@pytest.fixture(scope="module")
+def pyramid_points():
+    """The two bright texels kept as the exact point set beside the levels."""
+    envmap = pytest.importorskip("sgpipe.envmap")
+    pyr = envmap.build_pyramid(_test_cube(), envmap.PyramidSettings(max_points=256))
+    assert len(pyr.point_dirs) == 2
+    return pyr
 
 
 def _lams_for(lams):
@@ -89,8 +112,9 @@ def _lams_for(lams):
                                        lams[-1] * 0.05, 1e-4]])
 
 
-def test_accurate_lookup_matches_python_reference(pyramid):
-    pyr = pyramid
+@pytest.mark.parametrize("which", ["pyramid", "pyramid_points"])
+def test_accurate_lookup_matches_python_reference(which, request):
+    pyr = request.getfixturevalue(which)
     chain = GammaChain.from_levels(pyr.values, pyr.slopes)
     lam_set = _lams_for(pyr.lambdas)
     dirs = np.concatenate([_special_dirs(), _unit(RNG.normal(size=(40, 3)))])
@@ -98,7 +122,7 @@ def test_accurate_lookup_matches_python_reference(pyramid):
     # pick the same face at exact ties
     D = np.repeat(dirs, len(lam_set), 0).astype(np.float32)
     lam = np.tile(lam_set, len(dirs)).astype(np.float32)
-    got = gamma_cl(chain, pyr.lambdas, math.log(pyr.ratio), pyr.mean, D, lam)
+    got = gamma_cl(chain, pyr.lambdas, math.log(pyr.ratio), pyr.mean, D, lam, pyr)
     ref = np.asarray(pyr.lookup(D.astype(np.float64), lam.astype(np.float64)), float)
     assert np.all(ref > 0)
     rel = np.abs(got / ref - 1)
@@ -107,7 +131,7 @@ def test_accurate_lookup_matches_python_reference(pyramid):
     cap = _unit(np.array([[0.05, 0.02, -1.0], [-0.1, 0.1, -1.0]]))
     D2 = np.repeat(cap, len(lam_set), 0).astype(np.float32)
     lam2 = np.tile(lam_set, len(cap)).astype(np.float32)
-    got2 = gamma_cl(chain, pyr.lambdas, math.log(pyr.ratio), pyr.mean, D2, lam2)
+    got2 = gamma_cl(chain, pyr.lambdas, math.log(pyr.ratio), pyr.mean, D2, lam2, pyr)
     ref2 = np.asarray(pyr.lookup(D2.astype(np.float64), lam2.astype(np.float64)), float)
     scale = np.abs(ref2).max(1, keepdims=True)
     assert np.all(np.abs(got2 - ref2) <= 1e-4 * scale + 1e-4 * np.abs(ref2))
@@ -129,7 +153,7 @@ def test_accurate_lookup_is_more_accurate_than_cheap_path_between_levels(pyramid
     sel = (pyr.lambdas > 1.0) & (pyr.lambdas < pyr.lambdas[0])
     lam = np.repeat(pyr.lambdas[sel] * r ** 0.5, len(dirs))
     D = np.tile(dirs, (sel.sum(), 1)).astype(np.float32)
-    got = gamma_cl(chain, pyr.lambdas, math.log(pyr.ratio), pyr.mean, D, lam)
+    got = gamma_cl(chain, pyr.lambdas, math.log(pyr.ratio), pyr.mean, D, lam, pyr)
     exact = np.exp(lam[:, None] * (D.astype(float) @ src.T - 1.0)) @ E
     cheap = np.asarray(pyr.lookup_simple(D.astype(float), lam), float)
     err_acc = np.abs(got / exact - 1).max()
@@ -138,11 +162,12 @@ def test_accurate_lookup_is_more_accurate_than_cheap_path_between_levels(pyramid
     assert err_acc < 0.5 * err_cheap, (err_acc, err_cheap)
 
 
-def test_load_reads_coef_and_slope_files(tmp_path, pyramid):
-    """EnvData.load packs coef_LL / slope_LL exactly as written by the envmap contract."""
+def test_load_reads_coef_and_slope_files(tmp_path, pyramid_points):
+    """EnvData.load packs coef_LL / slope_LL and the point set exactly as written by the
+    envmap contract."""
     store = pytest.importorskip("sgpipe.envmap.store")
     from sgpipe.io import write_exr, write_npz
-    pyr = pyramid
+    pyr = pyramid_points
     for name, img, meta, _ in store.pyramid_files(pyr):
         write_exr(tmp_path / name, img, metadata=meta)
     write_npz(tmp_path / "pyramid.npz", store.pyramid_index(pyr))
@@ -157,10 +182,11 @@ def test_load_reads_coef_and_slope_files(tmp_path, pyramid):
     np.testing.assert_array_equal(env.gamma.res, pyr.face_res)
     np.testing.assert_array_equal(env.gamma.offsets, ref.offsets)
     np.testing.assert_array_equal(env.gamma.texels, ref.texels)
+    np.testing.assert_allclose(env.point_energy, pyr.point_energy, rtol=1e-6)
     # the kernel reading the loaded folder reproduces Pyramid.lookup
     d = _unit(RNG.normal(size=(64, 3))).astype(np.float32)
     lam = np.exp(RNG.uniform(np.log(0.1), np.log(2 * pyr.lambdas[0]), 64)).astype(np.float32)
-    got = gamma_cl(env.gamma, env.lambdas, env.log_ratio, env.mean, d, lam)
+    got = gamma_cl(env.gamma, env.lambdas, env.log_ratio, env.mean, d, lam, env)
     ref = np.asarray(pyr.lookup(d.astype(float), lam.astype(float)), float)
     np.testing.assert_allclose(got, ref, rtol=1e-4)
 

@@ -184,7 +184,8 @@ def test_microfacet_factor_matches_brdf_package(model, params):
 
 def test_lookups_agree_with_envmap_python_readers(tmp_path):
     """OpenCL Γ_L and MIP lookups vs sgpipe.envmap's reference readers, on folders written by
-    the real environment stage (the renderer uses the border-1 level path: `lookup_simple`)."""
+    the real environment stage: the cheap border-1 level path (`gamma_lookup` vs
+    `lookup_simple`); the accurate path `sg` uses is tested in test_gamma_lookup_cl.py."""
     from sg_testlib import latlong_dirs_and_weights
     from sgpipe import envmap
     from sgpipe.config import load_config

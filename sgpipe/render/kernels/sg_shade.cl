@@ -82,6 +82,7 @@ __kernel void sg_shade(
     /* accurate Γ_L chain: (V, m) B-spline coefficient pairs, border 2 (cubemap.h) */
     __global const float4 *pyr, __global const int *pyr_off, __global const int *pyr_res,
     __global const float *pyr_lam, const int pyr_n, const float pyr_log_ratio, const float4 env_mean,
+    __global const float4 *pyr_pts, const int n_pts,   /* point set beside the levels */
     __global const float4 *env_sg, const int n_env_sg, const float env_scale,
     __global const float4 *lights, const int n_lights,
     const int flags,
@@ -136,8 +137,9 @@ __kernel void sg_shade(
             float th = clamp(th0 + (el - el0), -1.5707963f, 1.5707963f);
             SG s = sg_times_visibility(spec[j], th);
             float3 pw = normalize(to_world(s.p, T, B, N));
-            rs += s.mu * env_scale * gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam, pyr_n,
-                                                      pyr_log_ratio, env_mean.xyz, pw, s.lam);
+            rs += s.mu * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam, pyr_n,
+                                                       pyr_log_ratio, env_mean.xyz, pw, s.lam)
+                                      + gamma_points(pyr_pts, n_pts, pw, s.lam));
         }
     }
     /* Local lights (eq 42–43), in the local frame. A light much sharper than the cosine lobe

@@ -136,6 +136,18 @@ inline float3 gamma_level(__global const float4 *data, int off, int n, int face,
     return accv.xyz;
 }
 
+/* Γ_L of the point set kept beside the levels (pyramid.npz point_dirs / point_energy; records
+ * (c_k, 0), (E_k, 0)): Σ_k E_k e^{λ(c_k·p − 1)}, exact at every λ (docs/ARTIFACTS.md). */
+inline float3 gamma_points(__global const float4 *pts, int n, float3 p, float lambda) {
+    float3 acc = (float3)(0.0f);
+    for (int k = 0; k < n; ++k)
+    {
+        float3 d = pts[2 * k].xyz - p;       /* c·p − 1 = −½|c − p|² (no cancellation) */
+        acc += pts[2 * k + 1].xyz * exp(-0.5f * lambda * dot(d, d));
+    }
+    return acc;
+}
+
 /* Γ_L(p, λ) (Wang09 eq 35), accurate path: λ ≥ λ_0 → S(λ)·V_0(p); between levels ℓ, ℓ+1 a cubic
  * Hermite of ln Γ_L in ln λ with slopes m (per channel; linear V where V_ℓ or V_ℓ₊₁ ≤ 0);
  * below λ_{L−1}: V = mean + A(λ)/A(λ_{L−1}) (V_{L−1} − mean). */
