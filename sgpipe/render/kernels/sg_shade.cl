@@ -19,6 +19,7 @@
 #ifndef SPEC_SUBLOBES
 #define SPEC_SUBLOBES 3
 #endif
+#define SHARP_CACHE 4       /* sharp lights whose irradiance is computed once per pixel */
 
 /* Wang09 eq 17–20 with the warp's anisotropy kept: an NDF lobe G(h; g, λ, μ) seen from o maps
  * to i-space around p = reflect(o, g) with sharpness λ/4 in the plane of incidence and
@@ -101,68 +102,81 @@ __kernel void sg_shade(
     SG cosq = sg_clamped_cosine((float3)(0.0f, 0.0f, 1.0f));   /* C*(z+) of the rotated frame */
     SG cosg = cosq; cosg.p = quat_rotate(q, cosq.p);             /* ... in the geometric frame */
 
-    /* BRDF slice ρ*_s(i; o') as warped SG lobes (eq 22), each split in SPEC_SUBLOBES isotropic
-     * sub-lobes (anisotropic warp) and multiplied by the cosine (spec_cosine), geometric frame. */
+    float3 rd = (float3)(0.0f), rs = (float3)(0.0f);
+    /* Environment, diffuse (eq 39). */
+    if (!(flags & 1))
+        rd += diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, &vis);
+    /* Local lights, diffuse part (eq 42), in the local frame. A light much sharper than the
+     * cosine lobe (λ_L ≥ SHARP_LIGHT) uses the limit of the products, E·max(0, n·l)·f(l)·
+     * f̂_h(θ_d(l), λ_L): C*'s peak 1.17 would otherwise brighten small lights by up to 17%. */
+    float3 e_sharp[SHARP_CACHE];      /* E of the first sharp lights, reused by the specular */
+    for (int k = 0; k < n_lights; ++k) {
+        SG Lw = light_sg(lights[2 * k], lights[2 * k + 1], x);
+        SG L = sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu);
+        if (L.lam >= SHARP_LIGHT) {
+            float3 lp = quat_rotate(qi, L.p);
+            float3 E = (float3)(0.0f);
+            if (lp.z > 0.0f && L.p.z > 0.0f)
+                E = sg_integral(L) * (lp.z * fh_hat(vis_theta(&vis, L.p), L.lam));
+            if (k < SHARP_CACHE) e_sharp[k] = E;
+            rd += mf_diffuse(m, kd, op, lp) * E;
+            continue;
+        }
+        SG g = sg_product(L, cosg);
+        float3 fd = mf_diffuse(m, kd, op, lift(quat_rotate(qi, g.p), 0.05f));
+        rd += fd * sg_dot_visibility(g, vis_theta(&vis, g.p));
+    }
+    /* Specular: per NDF lobe the BRDF slice ρ*_s(i; o') as a warped SG lobe (eq 22) split in
+     * SPEC_SUBLOBES isotropic sub-lobes (anisotropic warp), each times M_o and the cosine
+     * (spec_cosine), in the geometric frame; built on the fly (no per-lobe arrays: private
+     * memory stays small for any MAX_NDF_LOBES). */
     int nl = min((int)m[MAT_NLOBES], MAX_NDF_LOBES);
-    int ns = nl * SPEC_SUBLOBES;
-    SG spec[MAX_NDF_LOBES * SPEC_SUBLOBES], specw[MAX_NDF_LOBES * SPEC_SUBLOBES];
     for (int j = 0; j < nl; ++j) {
         float4 L0 = lobes[2 * ((int)m[MAT_LOBE0] + j)];
         float4 L1 = lobes[2 * ((int)m[MAT_LOBE0] + j) + 1];
         SG sub[SPEC_SUBLOBES];
         spec_warp(sg_make(normalize(L0.xyz), L0.w, (float3)(L1.x)), op, sub);
+        /* the SSDF is decoded once per NDF lobe (its centre sub-lobe); the side sub-lobes,
+         * offset in the plane of incidence, take θ_d shifted by their change of elevation
+         * (exact for the horizon) */
+        float th0 = 0.0f, el0 = 0.0f;
         for (int k = 0; k < SPEC_SUBLOBES; ++k) {
             SG w = sub[k];
             w.mu *= mf_M(m, tables, ks, op, lift(w.p, 0.05f));
             SG s = spec_cosine(w);
             w.p = quat_rotate(q, w.p);
             s.p = quat_rotate(q, s.p);
-            specw[j * SPEC_SUBLOBES + k] = w;
-            spec[j * SPEC_SUBLOBES + k] = s;
-        }
-    }
-
-    float3 rd = (float3)(0.0f), rs = (float3)(0.0f);
-    /* Environment, diffuse (eq 39). */
-    if (!(flags & 1))
-        rd += diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, &vis);
-    /* Environment, specular (eq 41): ⊗ V^d (eq 31), rotate to world, Γ_L lookup (eq 35). The
-     * SSDF is decoded once per NDF lobe (its centre sub-lobe); the side sub-lobes, offset in the
-     * plane of incidence, take θ_d shifted by their change of elevation (exact for the horizon). */
-    if (!(flags & 2)) {
-        float th0 = 0.0f, el0 = 0.0f;
-        for (int j = 0; j < ns; ++j) {
-            float el = asin(clamp(spec[j].p.z, -1.0f, 1.0f));
-            if (j % SPEC_SUBLOBES == 0) { th0 = vis_theta(&vis, spec[j].p); el0 = el; }
-            float th = clamp(th0 + (el - el0), -1.5707963f, 1.5707963f);
-            SG s = sg_times_visibility(spec[j], th);
-            float3 pw = normalize(to_world(s.p, T, B, N));
-            rs += s.mu * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam, pyr_n,
-                                                       pyr_log_ratio, env_mean.xyz, pw, s.lam)
-                                      + gamma_points(pyr_pts, n_pts, pw, s.lam));
-        }
-    }
-    /* Local lights (eq 42–43), in the local frame. A light much sharper than the cosine lobe
-     * (λ_L ≥ SHARP_LIGHT) uses the limit of the products, E·max(0, n·l)·ρ*(l)·f̂_h(θ_d(l), λ_L):
-     * C*'s peak 1.17 would otherwise brighten small lights by up to 17%. */
-    for (int k = 0; k < n_lights; ++k) {
-        SG Lw = light_sg(lights[2 * k], lights[2 * k + 1], x);
-        SG L = sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu);
-        if (L.lam >= SHARP_LIGHT) {
-            float3 lp = quat_rotate(qi, L.p);
-            if (lp.z <= 0.0f || L.p.z <= 0.0f) continue;
-            float3 E = sg_integral(L) * (lp.z * fh_hat(vis_theta(&vis, L.p), L.lam));
-            float3 f = mf_diffuse(m, kd, op, lp);
-            for (int j = 0; j < ns; ++j) f += sg_eval(specw[j], L.p);
-            rd += f * E;
-            continue;
-        }
-        SG g = sg_product(L, cosg);
-        float3 fd = mf_diffuse(m, kd, op, lift(quat_rotate(qi, g.p), 0.05f));
-        rd += fd * sg_dot_visibility(g, vis_theta(&vis, g.p));
-        for (int j = 0; j < ns; ++j) {
-            SG s = sg_product(L, spec[j]);
-            rs += sg_dot_visibility(s, vis_theta(&vis, s.p));
+            /* Environment (eq 41): ⊗ V^d (eq 31), rotate to world, Γ_L lookup (eq 35). */
+            if (!(flags & 2)) {
+                float el = asin(clamp(s.p.z, -1.0f, 1.0f));
+                if (k == 0) { th0 = vis_theta(&vis, s.p); el0 = el; }
+                float th = clamp(th0 + (el - el0), -1.5707963f, 1.5707963f);
+                SG sv = sg_times_visibility(s, th);
+                float3 pw = normalize(to_world(sv.p, T, B, N));
+                rs += sv.mu * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam,
+                                                            pyr_n, pyr_log_ratio, env_mean.xyz,
+                                                            pw, sv.lam)
+                                           + gamma_points(pyr_pts, n_pts, pw, sv.lam));
+            }
+            /* Local lights (eq 43). */
+            for (int l = 0; l < n_lights; ++l) {
+                SG Lw = light_sg(lights[2 * l], lights[2 * l + 1], x);
+                SG L = sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu);
+                if (L.lam >= SHARP_LIGHT) {
+                    float3 E;
+                    if (l < SHARP_CACHE) {
+                        E = e_sharp[l];
+                    } else {
+                        float3 lp = quat_rotate(qi, L.p);
+                        if (lp.z <= 0.0f || L.p.z <= 0.0f) continue;
+                        E = sg_integral(L) * (lp.z * fh_hat(vis_theta(&vis, L.p), L.lam));
+                    }
+                    rs += sg_eval(w, L.p) * E;
+                    continue;
+                }
+                SG sl = sg_product(L, s);
+                rs += sg_dot_visibility(sl, vis_theta(&vis, sl.p));
+            }
         }
     }
     out[gid] = (float4)(rd + rs, 1.0f);
