@@ -19,6 +19,7 @@ is deleted and the previous outputs stay as they were: nothing half-written.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -35,6 +36,24 @@ import sgpipe
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
 from sgpipe.io import file_hash, write_exr, write_npz, write_png
+
+
+def code_files() -> list[Path]:
+    """The sgpipe package's own code: Python modules and the OpenCL kernels (.cl, .h)."""
+    root = Path(sgpipe.__file__).resolve().parent
+    return sorted(p for p in root.rglob("*") if p.suffix in (".py", ".cl", ".h")
+                  and "__pycache__" not in p.parts)
+
+
+@functools.lru_cache(maxsize=1)
+def code_hash() -> str:
+    """Hash of `code_files()` (paths and contents): part of every stage's cache key, so a code
+    change re-runs stages instead of reusing artifacts made by older code."""
+    root = Path(sgpipe.__file__).resolve().parent
+    h = hashlib.sha256()
+    for f in code_files():
+        h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
 
 
 def params_hash(params: Any) -> str:
@@ -89,8 +108,9 @@ class StageRun:
 
     @property
     def param_hash(self) -> str:
-        return params_hash({"version": sgpipe.__version__, "stage": self.stage,
-                            "seed": getattr(self.cfg, "seed", 0), "params": self.params})
+        return params_hash({"version": sgpipe.__version__, "code": code_hash(),
+                            "stage": self.stage, "seed": getattr(self.cfg, "seed", 0),
+                            "params": self.params})
 
     def _up_to_date(self, input_hashes: dict[str, str]) -> bool:
         man_path = self.final_dir / "manifest.json"

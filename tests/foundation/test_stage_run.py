@@ -58,6 +58,25 @@ def test_skip_when_unchanged_and_rerun_on_change(cfg, tmp_path, capsys):
     assert not _run(cfg, out, {"v": 3.0}, [inp]).skipped          # output damaged
 
 
+def test_code_change_reruns(cfg, tmp_path, monkeypatch):
+    """The cache key includes a hash of sgpipe's own code: artifacts made by older code are not
+    reused (a stale fit once survived a code change this way)."""
+    import sgpipe.stages.base as base
+    out = tmp_path / "out"
+    assert not _run(cfg, out, {"v": 1.0}).skipped
+    assert _run(cfg, out, {"v": 1.0}).skipped
+    monkeypatch.setattr(base, "code_hash", lambda: "0123456789abcdef")
+    assert not _run(cfg, out, {"v": 1.0}).skipped
+    assert _run(cfg, out, {"v": 1.0}).skipped
+
+
+def test_code_hash_covers_python_and_kernels():
+    import sgpipe.stages.base as base
+    names = {p.name for p in base.code_files()}
+    assert {"base.py", "pyramid.py", "sg_shade.cl", "cubemap.h"} <= names
+    assert not any(p.suffix == ".pyc" for p in base.code_files())
+
+
 def test_failure_leaves_previous_outputs_untouched(cfg, tmp_path):
     out = tmp_path / "out"
     _run(cfg, out, {"v": 1.0})
