@@ -23,6 +23,7 @@ from sgpipe.core.maps import cubemap_solid_angles, cubemap_texel_dirs
 from sgpipe.envmap import _pyramid_jit as _pj
 from sgpipe.envmap._cube_jit import FACE_UVA, cube_texel_dirs_jit, sample_bordered
 from sgpipe.envmap.maps import faces_to_image
+from sgpipe.envmap.mip import bordered_box_level
 
 BORDER = 2          # stored border (cubic B-spline taps −1..+2 never leave the bordered face)
 _EXTRA = 5          # extra computed border consumed by the B-spline prefilter (0.268^5 ≈ 1e-3)
@@ -152,6 +153,9 @@ class Pyramid:
     # sparse bright texels kept out of the levels: Γ_L += Σ_k E_k e^{λ(c_k·p − 1)} exactly
     point_dirs: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     point_energy: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    # the finest cubemap the levels were built from (points removed), "cube6v_b1": the λ → ∞
+    # end of the sharp-side extrapolation (None: clamp to level 0)
+    raw: np.ndarray | None = None
 
     def points_gamma(self, P: np.ndarray, lam: np.ndarray) -> np.ndarray:
         """Σ_k E_k e^{λ(c_k·p − 1)} of the point set at unit P (M, 3), λ (M,) → (M, 3)."""
@@ -221,8 +225,14 @@ class Pyramid:
         sharp = x < 0
         broad = x > L - 1
         mid = ~(sharp | broad)
-        if sharp.any():   # sharper than the finest texels resolve: clamp to level 0
-            out[sharp], _ = self.level_values(0, P[sharp])
+        if sharp.any():   # sharper than level 0: towards the unfiltered map (blur variance 1/λ)
+            v0, _ = self.level_values(0, P[sharp])
+            if self.raw is None:
+                out[sharp] = v0
+            else:
+                n = self.raw.shape[1] - 2
+                vr = sample_bordered(self.raw, n, 1, P[sharp], False, np.empty((sharp.sum(), 3)))
+                out[sharp] = vr + (lam0 / lamv[sharp])[:, None] * (v0 - vr)
         if broad.any():
             vl, _ = self.level_values(L - 1, P[broad])
             w = (mean_resultant(lamv[broad]) / mean_resultant(self.lambdas[-1]))[:, None]
@@ -310,6 +320,10 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     info = {"tau_bright": tau, "bright_texels": n_bright, "tail_bright": t_bright,
             "tail_dim": s.tail_dim, "points": len(point_dirs),
             "build_s": time.perf_counter() - t0}
+    levels_cube = cube.copy()
+    if as_points:
+        levels_cube[bright] = 0.0
+    raw = bordered_box_level(levels_cube).astype(np.float32)
     return Pyramid(lambdas=lams, face_res=res, values=values, slopes=slopes, mean=mean,
                    ratio=s.ratio, info=info, samples=samples, point_dirs=point_dirs,
-                   point_energy=point_energy)
+                   point_energy=point_energy, raw=raw)

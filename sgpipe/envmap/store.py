@@ -16,6 +16,7 @@ PYRAMID_INDEX = "pyramid.npz"
 MIP_INDEX = "mip.npz"
 LIGHT_SG = "light_sg.npz"
 LIGHT_SH = "light_sh.npz"
+RAW_LEVEL = "pyramid/raw.exr"        # the finest cubemap of the levels' content (λ → ∞ end)
 
 
 def level_name(level: int, kind: str = "level") -> str:
@@ -35,6 +36,10 @@ def pyramid_files(pyr: Pyramid):
         out.append((level_name(l, "coef"), pyr.values[l], {**b2, "quantity": "V"}, False))
         out.append((level_name(l, "slope"), pyr.slopes[l],
                     {**b2, "quantity": "dlnG_dlnlambda"}, False))
+    if pyr.raw is not None:
+        out.append((RAW_LEVEL, pyr.raw, {"face_res": int(pyr.raw.shape[1] - 2), "border": 1,
+                                         "layout": "cube6v_b1", "quantity": "L",
+                                         "basis": "samples"}, False))
     return out
 
 
@@ -67,9 +72,10 @@ def load_pyramid(folder: str | Path) -> Pyramid:
             dst.append(img)
     points = {k: np.asarray(idx[k], np.float64).reshape(-1, 3) if k in idx else np.zeros((0, 3))
               for k in ("point_dirs", "point_energy")}
+    raw = read_exr(folder / RAW_LEVEL, channels=(3,)) if (folder / RAW_LEVEL).is_file() else None
     return Pyramid(lambdas=idx["lambdas"], face_res=idx["face_res"].astype(np.int64),
                    values=values, slopes=slopes, mean=idx["mean"], ratio=float(idx["ratio"]),
-                   samples=samples, **points)
+                   samples=samples, raw=raw, **points)
 
 
 def mip_files(cube: MipChain, dp: MipChain):

@@ -199,6 +199,9 @@ class EnvData:
     # point set beside the levels (pyramid.npz point_dirs / point_energy): Γ_L += Σ E e^{λ(c·p−1)}
     point_dirs: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
     point_energy: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
+    # the unfiltered map of the levels' content (pyramid/raw.exr, one "cube6v_b1" level): the
+    # λ → ∞ end of the sharp-side extrapolation; None: clamp to level 0
+    raw: CubeChain | None = None
 
     def __post_init__(self):
         if self.gamma is None:
@@ -245,7 +248,8 @@ class EnvData:
                    light_axes=np.array([[0.0, 1.0, 0.0]], np.float32),
                    light_lambda=np.array([1e-4], np.float32),
                    light_mu=rgb[None, :].copy(),
-                   gamma=GammaChain.constant(rgb, face_res, lams.astype(np.float64)))
+                   gamma=GammaChain.constant(rgb, face_res, lams.astype(np.float64)),
+                   raw=CubeChain.constant(rgb, face_res, 1))
 
     @classmethod
     def load(cls, folder: str | Path) -> "EnvData":
@@ -277,6 +281,13 @@ class EnvData:
                                        key="envmap")
                     dst.append(img)
             gamma = GammaChain.from_levels(vals, slps)
+        raw = None
+        if (pyr / "raw.exr").is_file():
+            img = read_exr(pyr / "raw.exr", channels=(3, 4), key="envmap")[..., :3]
+            if img.shape[0] != 6 * img.shape[1]:
+                raise BadInput(f"shape {img.shape} is not a bordered cube strip",
+                               file=pyr / "raw.exr", key="envmap")
+            raw = CubeChain.from_levels([img])
         ratio = scalar(idx["ratio"]) if "ratio" in idx else (
             float(lam[0] / lam[1]) if len(lam) > 1 else 2.0)
         mip_idx = read_npz(folder / "mip.npz", required=("cube_res",), key="envmap")
@@ -290,5 +301,5 @@ class EnvData:
                    light_axes=np.asarray(lsg["axes"], np.float32).reshape(-1, 3),
                    light_lambda=np.asarray(lsg["sharpness"], np.float32).reshape(-1),
                    light_mu=np.asarray(lsg["amplitude"], np.float32).reshape(-1, 3),
-                   gamma=gamma, **{k: np.asarray(idx[k], np.float32).reshape(-1, 3)
-                                   for k in ("point_dirs", "point_energy") if k in idx})
+                   gamma=gamma, raw=raw, **{k: np.asarray(idx[k], np.float32).reshape(-1, 3)
+                                            for k in ("point_dirs", "point_energy") if k in idx})

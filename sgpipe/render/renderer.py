@@ -226,6 +226,7 @@ class Renderer:
             pyr=dev(e.gamma.texels), pyr_off=dev(e.gamma.offsets, np.int32),
             pyr_res=dev(e.gamma.res, np.int32), pyr_lam=dev(e.lambdas),
             pyr_pts=dev(e.point_records().reshape(-1, 4)),
+            pyr_raw=dev(e.raw.texels if e.raw is not None else np.zeros((1, 4), np.float32)),
             mip=dev(e.mip.texels), mip_off=dev(e.mip.offsets, np.int32),
             mip_res=dev(e.mip.res, np.int32),
             env_sg=dev(e.light_records().reshape(-1, 4)), lights=dev(lrec.reshape(-1, 4)))
@@ -282,6 +283,7 @@ class Renderer:
             args = common + [b["pyr"], b["pyr_off"], b["pyr_res"], b["pyr_lam"],
                              i32(len(e.lambdas)), f32(e.log_ratio), self.env_mean,
                              b["pyr_pts"], i32(len(e.point_dirs)),
+                             b["pyr_raw"], i32(0 if e.raw is None else int(e.raw.res[0])),
                              b["env_sg"], i32(self.n_env_sg), f32(self.env_scale)] + lights
         else:
             args = common + [b["gmm"], b["ndf_info"], b["mip"], b["mip_off"], b["mip_res"],

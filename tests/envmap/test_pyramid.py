@@ -135,3 +135,35 @@ def test_disk_sun_between_levels(settings):
     else:
         assert len(pyr.point_dirs) == 0
         assert worst > 0.01, "expected the λ interpolation of a disk sun to miss 1 %"
+
+
+def test_sharper_than_level_0_extrapolates_towards_the_map():
+    """λ > λ_0: V = V_raw + (λ_0/λ)(V_0 − V_raw) (blur variance 1/λ towards the unfiltered map)
+    instead of clamping to level 0. For L(d) = c + g·d the exact normalised convolution is
+    c + A(λ) g·p at every λ."""
+    from sgpipe.core.maps import cubemap_texel_dirs
+    from sgpipe.envmap.pyramid import mean_resultant
+    g = np.array([0.6, -0.3, 0.4])
+    N = 32
+    cube = 1.0 + cubemap_texel_dirs(N) @ g
+    cube = np.repeat(cube[..., None], 3, axis=-1)
+    pyr = build_pyramid(cube)
+    d = probe_directions(300, seed=4)
+    lam0 = float(pyr.lambdas[0])
+    assert pyr.raw is not None
+    # the floor: level 0's own error at λ_0 and the bilinear map's (gnomonic grid) error
+    floor = max(np.abs(pyr.lookup(d, lam0, normalized=True)[:, 0]
+                       - 1.0 - mean_resultant(lam0) * (d @ g)).max(),
+                np.abs(pyr.lookup(d, 1e12, normalized=True)[:, 0] - 1.0 - d @ g).max())
+    assert floor < 4e-3
+    for lam in (1.5 * lam0, 4 * lam0, 30 * lam0):
+        exact = 1.0 + mean_resultant(lam) * (d @ g)
+        got = pyr.lookup(d, lam, normalized=True)[:, 0]
+        clamped = pyr.lookup(d, lam0, normalized=True)[:, 0]
+        err, err_clamp = np.abs(got - exact).max(), np.abs(clamped - exact).max()
+        assert err < 1.05 * floor, (lam / lam0, err, floor)
+        if lam >= 4 * lam0:
+            assert err < 0.3 * err_clamp, (lam / lam0, err, err_clamp)
+    # continuous at λ_0
+    np.testing.assert_allclose(pyr.lookup(d, lam0 * (1 + 1e-9), normalized=True),
+                               pyr.lookup(d, lam0, normalized=True), rtol=1e-6)

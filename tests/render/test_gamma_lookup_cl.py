@@ -21,10 +21,11 @@ __kernel void t_gamma_acc(__global const float4 *data, __global const int *off,
                           __global const int *res, __global const float *lam, const int nlev,
                           const float log_ratio, const float4 mean, __global const float4 *dirs,
                           __global const float *lams, __global const float4 *pts,
-                          const int npts, __global float4 *out) {
+                          const int npts, __global const float4 *raw, const int raw_n,
+                          __global float4 *out) {
     int i = get_global_id(0);
-    out[i] = (float4)(gamma_lookup_acc(data, off, res, lam, nlev, log_ratio, mean.xyz,
-                                       dirs[i].xyz, lams[i])
+    out[i] = (float4)(gamma_lookup_acc(data, off, res, lam, nlev, log_ratio, mean.xyz, raw,
+                                       raw_n, dirs[i].xyz, lams[i])
                       + gamma_points(pts, npts, dirs[i].xyz, lams[i]), 0.0f);
 }
 """
@@ -44,7 +45,7 @@ def _points(obj) -> np.ndarray:
 
 def gamma_cl(chain: GammaChain, lambdas, log_ratio, mean, dirs, lams, points=None) -> np.ndarray:
     """Γ_L (n, 3) from the kernel for float32 directions (n, 3) and λ (n,); `points`: the
-    Pyramid / EnvData whose point set is added (none if None)."""
+    Pyramid / EnvData whose point set and raw level (λ > λ_0) are used (none if None)."""
     import pyopencl as cl
     from pyopencl import cltypes
     ctx, q = opencl.get_context()
@@ -55,6 +56,15 @@ def gamma_cl(chain: GammaChain, lambdas, log_ratio, mean, dirs, lams, points=Non
     dev = lambda a, dt=np.float32: opencl.to_device(ctx, a, dtype=dt)
     out = opencl.empty_device(ctx, 16 * n)
     m = np.asarray(mean, np.float32)
+    raw = getattr(points, "raw", None)
+    if raw is None:
+        raw4, raw_n = np.zeros((1, 4), np.float32), 0
+    elif hasattr(raw, "texels"):                       # EnvData: a packed CubeChain
+        raw4, raw_n = raw.texels, int(raw.res[0])
+    else:                                              # Pyramid: the bordered image
+        raw4 = np.zeros((raw.shape[0] * raw.shape[1], 4), np.float32)
+        raw4[:, :3] = raw.reshape(-1, 3)
+        raw_n = raw.shape[1] - 2
     cl.Kernel(prg, "t_gamma_acc")(
         q, (n,), None, dev(chain.texels), dev(chain.offsets, np.int32),
         dev(chain.res, np.int32), dev(np.asarray(lambdas, np.float32)),
@@ -62,7 +72,8 @@ def gamma_cl(chain: GammaChain, lambdas, log_ratio, mean, dirs, lams, points=Non
         cltypes.make_float4(float(m[0]), float(m[1]), float(m[2]), 0.0), dev(d4),
         dev(np.asarray(lams, np.float32)),
         dev((_points(points) if points is not None else np.zeros((1, 2, 4), np.float32))
-            .reshape(-1, 4)), np.int32(0 if points is None else len(points.point_dirs)), out)
+            .reshape(-1, 4)), np.int32(0 if points is None else len(points.point_dirs)),
+        dev(raw4), np.int32(raw_n), out)
     return opencl.read_back(q, out, (n, 4))[:, :3].astype(np.float64)
 
 

@@ -84,6 +84,7 @@ __kernel void sg_shade(
     __global const float4 *pyr, __global const int *pyr_off, __global const int *pyr_res,
     __global const float *pyr_lam, const int pyr_n, const float pyr_log_ratio, const float4 env_mean,
     __global const float4 *pyr_pts, const int n_pts,   /* point set beside the levels */
+    __global const float4 *pyr_raw, const int raw_n,   /* unfiltered map (λ > λ_0), b1 */
     __global const float4 *env_sg, const int n_env_sg, const float env_scale,
     __global const float4 *lights, const int n_lights,
     const int flags,
@@ -155,7 +156,7 @@ __kernel void sg_shade(
                 float3 pw = normalize(to_world(sv.p, T, B, N));
                 rs += sv.mu * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam,
                                                             pyr_n, pyr_log_ratio, env_mean.xyz,
-                                                            pw, sv.lam)
+                                                            pyr_raw, raw_n, pw, sv.lam)
                                            + gamma_points(pyr_pts, n_pts, pw, sv.lam));
             }
             /* Local lights (eq 43). */

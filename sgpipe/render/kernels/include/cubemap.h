@@ -148,17 +148,26 @@ inline float3 gamma_points(__global const float4 *pts, int n, float3 p, float la
     return acc;
 }
 
-/* Γ_L(p, λ) (Wang09 eq 35), accurate path: λ ≥ λ_0 → S(λ)·V_0(p); between levels ℓ, ℓ+1 a cubic
+/* Γ_L(p, λ) (Wang09 eq 35), accurate path: λ ≥ λ_0 → towards the raw map (below); between levels ℓ, ℓ+1 a cubic
  * Hermite of ln Γ_L in ln λ with slopes m (per channel; linear V where V_ℓ or V_ℓ₊₁ ≤ 0);
  * below λ_{L−1}: V = mean + A(λ)/A(λ_{L−1}) (V_{L−1} − mean). */
 inline float3 gamma_lookup_acc(__global const float4 *data, __global const int *off,
                                __global const int *res, __global const float *lam, int nlev,
-                               float log_ratio, float3 mean, float3 p, float lambda) {
+                               float log_ratio, float3 mean, __global const float4 *raw,
+                               int raw_n, float3 p, float lambda) {
     float s, t;
     int face = cube_coords(p, &s, &t);
     float3 mdummy;
-    if (lambda >= lam[0])
-        return gamma_level(data, off[0], res[0], face, s, t, 0, &mdummy) * sg_integral_unit(lambda);
+    if (lambda >= lam[0]) {
+        /* sharper than level 0: blur variance 1/λ towards the unfiltered map (pyramid/raw.exr,
+         * "cube6v_b1"): V = V_raw + (λ_0/λ)(V_0 − V_raw); no raw level (raw_n = 0): V_0 */
+        float3 v0 = gamma_level(data, off[0], res[0], face, s, t, 0, &mdummy);
+        if (raw_n > 0) {
+            float3 vr = cube_bilinear(raw, 0, raw_n, p);
+            v0 = vr + (lam[0] / lambda) * (v0 - vr);
+        }
+        return v0 * sg_integral_unit(lambda);
+    }
     if (lambda < lam[nlev - 1]) {
         float w = mean_resultant(lambda) / mean_resultant(lam[nlev - 1]);
         float3 vl = gamma_level(data, off[nlev - 1], res[nlev - 1], face, s, t, 0, &mdummy);
