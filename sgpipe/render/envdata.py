@@ -29,13 +29,6 @@ def scalar(a) -> float:
     return float(np.asarray(a, np.float64).reshape(-1)[0])
 
 
-def sg_norm(lam):
-    """S(λ) = 2π(1 − e^{−2λ})/λ (Wang09 eq 4 with one lobe)."""
-    lam = np.asarray(lam, np.float64)
-    ls = np.maximum(lam, 1e-12)
-    return np.where(lam < 1e-8, 4.0 * np.pi, -2.0 * np.pi * np.expm1(-2.0 * ls) / ls)
-
-
 def dln_sg_norm(lam):
     """∂ln S/∂ln λ = 2λ/(e^{2λ} − 1) − 1: the log-slope of Γ_L for a constant environment."""
     lam = np.asarray(lam, np.float64)
