@@ -225,14 +225,8 @@ class Pyramid:
         sharp = x < 0
         broad = x > L - 1
         mid = ~(sharp | broad)
-        if sharp.any():   # sharper than level 0: towards the unfiltered map (blur variance 1/λ)
-            v0, _ = self.level_values(0, P[sharp])
-            if self.raw is None:
-                out[sharp] = v0
-            else:
-                n = self.raw.shape[1] - 2
-                vr = sample_bordered(self.raw, n, 1, P[sharp], False, np.empty((sharp.sum(), 3)))
-                out[sharp] = vr + (lam0 / lamv[sharp])[:, None] * (v0 - vr)
+        if sharp.any():   # sharper than level 0: towards the unfiltered map
+            out[sharp] = self._sharp(np.ascontiguousarray(P[sharp]), lamv[sharp])
         if broad.any():
             vl, _ = self.level_values(L - 1, P[broad])
             w = (mean_resultant(lamv[broad]) / mean_resultant(self.lambdas[-1]))[:, None]
@@ -253,19 +247,46 @@ class Pyramid:
         """Cubic Hermite of y = ln Γ in u = ln λ between levels l and l+1 (t ∈ [0, 1])."""
         va, ma = self.level_values(l, P)
         vb, mb = self.level_values(l + 1, P)
-        la, lb = self.lambdas[l], self.lambdas[l + 1]
-        t = t[:, None]
-        lin = (1.0 - t) * va + t * vb
-        ok = (va > 0) & (vb > 0)
-        ya = np.log(np.where(ok, va, 1.0) * sg_norm(la))
-        yb = np.log(np.where(ok, vb, 1.0) * sg_norm(lb))
-        du = math.log(lb / la)
-        t2 = t * t
-        t3 = t2 * t
-        y = ((2 * t3 - 3 * t2 + 1) * ya + (t3 - 2 * t2 + t) * du * ma
-             + (-2 * t3 + 3 * t2) * yb + (t3 - t2) * du * mb)
-        herm = np.exp(y) / sg_norm(lam)[:, None]
-        return np.where(ok, herm, lin)
+        return hermite_ln(va, ma, self.lambdas[l], vb, mb, self.lambdas[l + 1], lam, t)
+
+    def _sharp(self, P: np.ndarray, lam: np.ndarray) -> np.ndarray:
+        """λ > λ_0: the same Hermite of ln Γ in ln λ from level 0 (V_0, m_0) to the unfiltered
+        map at λ_r = 1.5 N² (bilinear reconstruction blurs by h²/6, h = 2/N: λ_r = 6/h²; its
+        slope is that of S alone), V = V_raw beyond; without `raw`, V = V_0 (clamped)."""
+        v0, m0 = self.level_values(0, P)
+        if self.raw is None:
+            return v0
+        n = self.raw.shape[1] - 2
+        vr = sample_bordered(self.raw, n, 1, P, False, np.empty((len(P), 3)))
+        lam0, lam_r = float(self.lambdas[0]), 1.5 * n * n
+        if lam_r <= lam0:
+            return v0
+        t = np.clip(np.log(lam / lam0) / math.log(lam_r / lam0), 0.0, 1.0)
+        mr = np.full_like(vr, float(dln_sg_norm(lam_r)))
+        return hermite_ln(v0, m0, lam0, vr, mr, lam_r, np.minimum(lam, lam_r), t)
+
+
+def dln_sg_norm(lam):
+    """∂ln S/∂ln λ = 2λ/(e^{2λ} − 1) − 1: the log-slope of Γ_L of a constant map."""
+    x = np.clip(2.0 * np.asarray(lam, float), 1e-300, 700.0)
+    return np.where(x < 2e-8, -0.5 * x, x / np.expm1(x) - 1.0)
+
+
+def hermite_ln(va, ma, la, vb, mb, lb, lam, t):
+    """V at λ (t ∈ [0, 1] its position in ln λ between la and lb) from a cubic Hermite of
+    y = ln Γ = ln(S·V) in u = ln λ with end slopes m (per channel); linear V where V ≤ 0."""
+    t = np.asarray(t, float)[:, None]
+    lin = (1.0 - t) * va + t * vb
+    ok = (va > 0) & (vb > 0)
+    ya = np.log(np.where(ok, va, 1.0) * sg_norm(la))
+    yb = np.log(np.where(ok, vb, 1.0) * sg_norm(lb))
+    du = math.log(lb / la)
+    t2 = t * t
+    t3 = t2 * t
+    y = ((2 * t3 - 3 * t2 + 1) * ya + (t3 - 2 * t2 + t) * du * ma
+         + (-2 * t3 + 3 * t2) * yb + (t3 - t2) * du * mb)
+    herm = np.exp(y) / sg_norm(lam)[:, None]
+    return np.where(ok, herm, lin)
 
 
 def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> Pyramid:

