@@ -63,21 +63,7 @@ inline float ndf_table(__global const float *tables, int4 info, float3 h) {
 }
 
 __kernel void fis_shade(
-    const int n,
-    __global const float4 *gnrm, __global const float4 *gtan, __global const float4 *gview,
-    __global const float4 *gpos, __global const float2 *guv,
-    __global const int *gobj, __global const int *gtri, __global const float2 *gbary,
-    __global const int8 *objs, __global const float4 *objf,
-    __global const int *vfaces, __global const float *coeffs,
-    __global const float *ssdf_data,
-    __global const float *mats, __global const float4 *lobes, __global const float *tables,
-    __global const float4 *texels, __global const int4 *texinfo,
-    __global const float4 *gmm, __global const int4 *ndf_info,
-    __global const float4 *mip, __global const int *mip_off, __global const int *mip_res,
-    const int mip_n,
-    __global const float4 *env_sg, const int n_env_sg, const float env_scale,
-    const float coverage,
-    __global const float4 *lights, const int n_lights,
+    SHADE_PIXEL_ARGS, SHADE_MIP_ARGS,
     const int nsamp, const uint seed, const int flags,
     __global float4 *out)
 {

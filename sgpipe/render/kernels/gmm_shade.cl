@@ -40,22 +40,9 @@ inline float3 gmm_trilinear(__global const float4 *mip, int off0, int n0, int of
                             float f, float3 d) {
     float s, t;
     int face = cube_coords(d, &s, &t);
-    float3 c = (float3)(0.0f);
-    for (int l = 0; l < 2; ++l) {
-        int n = l ? n1 : n0;
-        int w = n + 2;
-        float u = clamp(s * (float)n + 0.5f, 0.5f, (float)n + 0.5f);
-        float v = clamp(t * (float)n + 0.5f, 0.5f, (float)n + 0.5f);
-        float j0f = floor(u), i0f = floor(v);
-        float fx = u - j0f, fy = v - i0f;
-        int j0 = min((int)j0f, n), i0 = min((int)i0f, n);
-        __global const float4 *row0 = mip + (l ? off1 : off0) + (face * w + i0) * w + j0;
-        __global const float4 *row1 = row0 + w;
-        float4 x = mix(mix(row0[0], row0[1], fx), mix(row1[0], row1[1], fx), fy);
-        c += (l ? f : 1.0f - f) * x.xyz;
-        if (f <= 0.0f) break;
-    }
-    return c;
+    float3 c = (1.0f - f) * cube_bilinear_st(mip, off0, n0, face, s, t);
+    if (f <= 0.0f) return c;
+    return c + f * cube_bilinear_st(mip, off1, n1, face, s, t);
 }
 
 /* ∫ vMF(ω; a, κ) L(ω) dω from the box MIP chain (paper 000 eq 6–10, made lobe-shaped).
@@ -127,21 +114,7 @@ inline void gmm_lobe(__global const float4 *gmm, int base, int np, int K, int t,
 }
 
 __kernel void gmm_shade(
-    const int n,
-    __global const float4 *gnrm, __global const float4 *gtan, __global const float4 *gview,
-    __global const float4 *gpos, __global const float2 *guv,
-    __global const int *gobj, __global const int *gtri, __global const float2 *gbary,
-    __global const int8 *objs, __global const float4 *objf,
-    __global const int *vfaces, __global const float *coeffs,
-    __global const float *ssdf_data,
-    __global const float *mats, __global const float4 *lobes, __global const float *tables,
-    __global const float4 *texels, __global const int4 *texinfo,
-    __global const float4 *gmm, __global const int4 *ndf_info,
-    __global const float4 *mip, __global const int *mip_off, __global const int *mip_res,
-    const int mip_n,
-    __global const float4 *env_sg, const int n_env_sg, const float env_scale,
-    const float coverage,
-    __global const float4 *lights, const int n_lights,
+    SHADE_PIXEL_ARGS, SHADE_MIP_ARGS,
     const int interp, const int flags,
     __global float4 *out)
 {

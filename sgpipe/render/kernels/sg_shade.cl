@@ -71,15 +71,7 @@ inline SG spec_cosine(SG g) {
 }
 
 __kernel void sg_shade(
-    const int n,
-    __global const float4 *gnrm, __global const float4 *gtan, __global const float4 *gview,
-    __global const float4 *gpos, __global const float2 *guv,
-    __global const int *gobj, __global const int *gtri, __global const float2 *gbary,
-    __global const int8 *objs, __global const float4 *objf,
-    __global const int *vfaces, __global const float *coeffs,
-    __global const float *ssdf_data,
-    __global const float *mats, __global const float4 *lobes, __global const float *tables,
-    __global const float4 *texels, __global const int4 *texinfo,
+    SHADE_PIXEL_ARGS,
     /* accurate Γ_L chain: (V, m) B-spline coefficient pairs, border 2 (cubemap.h) */
     __global const float4 *pyr, __global const int *pyr_off, __global const int *pyr_res,
     __global const float *pyr_lam, const int pyr_n, const float pyr_log_ratio, const float4 env_mean,

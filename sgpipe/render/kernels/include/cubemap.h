@@ -28,10 +28,9 @@ inline int cube_coords(float3 d, float *s, float *t) {
     return face;
 }
 
-/* Bilinear lookup of one bordered level (face resolution n) in direction d. */
-inline float3 cube_bilinear(__global const float4 *data, int off, int n, float3 d) {
-    float s, t;
-    int face = cube_coords(d, &s, &t);
+/* Bilinear lookup of one bordered level (face resolution n) at face coordinates (face, s, t). */
+inline float3 cube_bilinear_st(__global const float4 *data, int off, int n, int face, float s,
+                               float t) {
     int w = n + 2;
     float u = clamp(s * (float)n + 0.5f, 0.5f, (float)n + 0.5f);
     float v = clamp(t * (float)n + 0.5f, 0.5f, (float)n + 0.5f);
@@ -42,6 +41,13 @@ inline float3 cube_bilinear(__global const float4 *data, int off, int n, float3 
     __global const float4 *row1 = row0 + w;
     float4 c = mix(mix(row0[0], row0[1], fx), mix(row1[0], row1[1], fx), fy);
     return c.xyz;
+}
+
+/* Bilinear lookup of one bordered level (face resolution n) in direction d. */
+inline float3 cube_bilinear(__global const float4 *data, int off, int n, float3 d) {
+    float s, t;
+    int face = cube_coords(d, &s, &t);
+    return cube_bilinear_st(data, off, n, face, s, t);
 }
 
 /* Box MIP chain at fractional level `lod` (trilinear; clamped to [0, nlev − 1]). */

@@ -121,6 +121,29 @@ inline float vis_theta(const Vis *v, float3 d) {
     return clamp(th, -lim, lim);
 }
 
+/* The kernel parameters every method takes first, in the host's order (renderer.py `common`):
+ * the G-buffer, objects and their SSDF data, materials, textures. */
+#define SHADE_PIXEL_ARGS \
+    const int n, \
+    __global const float4 *gnrm, __global const float4 *gtan, __global const float4 *gview, \
+    __global const float4 *gpos, __global const float2 *guv, \
+    __global const int *gobj, __global const int *gtri, __global const float2 *gbary, \
+    __global const int8 *objs, __global const float4 *objf, \
+    __global const int *vfaces, __global const float *coeffs, \
+    __global const float *ssdf_data, \
+    __global const float *mats, __global const float4 *lobes, __global const float *tables, \
+    __global const float4 *texels, __global const int4 *texinfo
+
+/* ... and what gmm and fis take next: per-view mixtures / tabulated NDFs, the box MIP chain,
+ * the diffuse SG light fit, the lobe coverage a, the local lights. */
+#define SHADE_MIP_ARGS \
+    __global const float4 *gmm, __global const int4 *ndf_info, \
+    __global const float4 *mip, __global const int *mip_off, __global const int *mip_res, \
+    const int mip_n, \
+    __global const float4 *env_sg, const int n_env_sg, const float env_scale, \
+    const float coverage, \
+    __global const float4 *lights, const int n_lights
+
 /* Per-pixel set-up shared by sg, gmm and fis: the G-buffer frame (n, t, b = n × t), the
  * material with its texture scales (SVBRDF), and the normal-map rotation q of the local frame
  * (§7) with the view direction o' in the rotated frame. Visibility stays in the geometric one. */
