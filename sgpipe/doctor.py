@@ -7,33 +7,28 @@ import importlib
 import click
 import numpy as np
 
-OPENCL_FIX = ("no OpenCL CPU device: install PoCL with `sudo apt-get update && "
-              "sudo apt-get install -y pocl-opencl-icd` (or run `make demo` as root)")
-
-
 def check_opencl() -> tuple[bool, list[str]]:
-    """List platforms/devices, then build and run a tiny kernel on the first device."""
+    """List platforms/devices, then build and run a tiny kernel on the device the renderer
+    uses (`sgpipe.render.opencl.pick_device`)."""
     lines = []
     try:
         import pyopencl as cl
     except Exception as e:  # noqa: BLE001 - report any import failure
         return False, [f"pyopencl: not importable ({e}); fix: pip install pyopencl"]
     lines.append(f"pyopencl {cl.VERSION_TEXT}")
-    try:
-        platforms = cl.get_platforms()
-    except cl.Error:
-        platforms = []
-    devices = []
-    for p in platforms:
+    from sgpipe.errors import BadInput
+    from sgpipe.render.opencl import pick_device, platform_devices
+    for p, devs in platform_devices(cl):
         lines.append(f"  platform: {p.name} ({p.version})")
-        for d in p.get_devices():
+        for d in devs:
             lines.append(f"    device: {d.name} [{cl.device_type.to_string(d.type)}], "
                          f"{d.max_compute_units} compute units, "
                          f"{d.global_mem_size / 2**30:.1f} GiB")
-            devices.append(d)
-    if not devices:
-        return False, lines + [OPENCL_FIX]
-    ctx = cl.Context([devices[0]])
+    try:
+        dev = pick_device(cl)
+    except BadInput as e:
+        return False, lines + [e.one_line()]
+    ctx = cl.Context([dev])
     q = cl.CommandQueue(ctx)
     prg = cl.Program(ctx, "__kernel void sq(__global float *a)"
                           "{ int i = get_global_id(0); a[i] = a[i] * a[i]; }").build()
@@ -43,7 +38,7 @@ def check_opencl() -> tuple[bool, list[str]]:
     out = np.empty_like(a)
     cl.enqueue_copy(q, out, buf)
     ok = bool(np.array_equal(out, a * a))
-    lines.append(f"  test kernel on '{devices[0].name}': {'ok' if ok else 'WRONG RESULT'}")
+    lines.append(f"  test kernel on '{dev.name}': {'ok' if ok else 'WRONG RESULT'}")
     return ok, lines
 
 

@@ -46,17 +46,26 @@ def _cl():
     return cl
 
 
-def _pick_device(cl):
+def platform_devices(cl) -> list[tuple[object, list]]:
+    """[(platform, its devices)] of every OpenCL platform (a platform that cannot list its
+    devices shows none)."""
     try:
         platforms = cl.get_platforms()
     except cl.Error:
         platforms = []
-    devices = []
+    out = []
     for p in platforms:
         try:
-            devices += p.get_devices()
+            out.append((p, list(p.get_devices())))
         except cl.Error:
-            continue
+            out.append((p, []))
+    return out
+
+
+def pick_device(cl):
+    """The device `get_context` uses: SGPIPE_OPENCL_DEVICE by name, else the first CPU device,
+    else the first device (BadInput with the fix when there is none)."""
+    devices = [d for _, ds in platform_devices(cl) for d in ds]
     if not devices:
         raise BadInput(OPENCL_FIX, key="opencl")
     want = os.environ.get("SGPIPE_OPENCL_DEVICE", "")
@@ -74,7 +83,7 @@ def get_context():
     with _LOCK:
         if _CONTEXT is None:
             cl = _cl()
-            dev = _pick_device(cl)
+            dev = pick_device(cl)
             ctx = cl.Context([dev])
             _CONTEXT = (ctx, cl.CommandQueue(ctx))
         return _CONTEXT
