@@ -39,6 +39,17 @@ def boxes_cube(n):
     return cube
 
 
+def spot_env(n: int) -> np.ndarray:
+    """Cube faces (6, n, n, 3): a vertical gradient plus six small bright sources (σ ≈ 3°)."""
+    d = cubemap_texel_dirs(n)
+    c = np.random.default_rng(5).normal(size=(6, 3))
+    c /= np.linalg.norm(c, axis=1, keepdims=True)
+    L = 0.3 + 0.2 * d[..., 1:2] * np.ones(3)
+    for k, ck in enumerate(c):
+        L = L + (10.0 + 10 * k) * np.exp(400.0 * (d @ ck - 1.0))[..., None] * [1.0, 0.8, 0.6]
+    return L
+
+
 def brute_gamma(cube, p, lam):
     """Brute-force quadrature Γ(p, λ) = Σ_texels L Ω e^{λ(ω·p − 1)} over the cubemap texels."""
     n = cube.shape[1]

@@ -8,6 +8,8 @@ from sgpipe.core.maps import (cubemap_solid_angles, cubemap_texel_dirs, dual_par
                               dual_paraboloid_texel_dirs, dual_paraboloid_valid_mask)
 from sgpipe.envmap import maps, mip
 
+from .envmap_helpers import spot_env
+
 
 def test_cube_chain_preserves_power_and_halves():
     rng = np.random.default_rng(0)
@@ -81,23 +83,12 @@ def test_fis_lod_colbert_krivanek():
     assert ch.fis_lod(d, 1e9, n)[0] == 0.0      # very peaked pdf: finest level
 
 
-def _spot_env(n: int) -> np.ndarray:
-    """Cube faces (6, n, n, 3): a vertical gradient plus six small bright sources (σ ≈ 3°)."""
-    d = cubemap_texel_dirs(n)
-    c = np.random.default_rng(5).normal(size=(6, 3))
-    c /= np.linalg.norm(c, axis=1, keepdims=True)
-    L = 0.3 + 0.2 * d[..., 1:2] * np.ones(3)
-    for k, ck in enumerate(c):
-        L = L + (10.0 + 10 * k) * np.exp(400.0 * (d @ ck - 1.0))[..., None] * [1.0, 0.8, 0.6]
-    return L
-
-
 def test_lobe_integral_matches_vmf_quadrature():
     """gmm's per-lobe lookup vs Σ_texels vMF(d; μ, κ) L Ω at the finest level (κ ≤ (N/4)²).
     Issue 6 root cause (a): one box-MIP texel at the eq 10 level is not the lobe (17–53 % RMS
     error here); the lobe-shaped taps bring it to ≤ ~13 %."""
     n = 64
-    faces = _spot_env(n)
+    faces = spot_env(n)
     chain = mip.build_cube_chain(faces)
     D = cubemap_texel_dirs(n).reshape(-1, 3)
     W = cubemap_solid_angles(n).reshape(-1)

@@ -2,10 +2,14 @@
 eq 6–10 on the box MIP chain) against its numpy mirror `sgpipe.envmap.mip.MipChain.lobe_integral`
 (whose error vs ∫vMF(ω; μ, κ) L(ω) dω by quadrature is tested in tests/envmap/test_mip.py)."""
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-from sgpipe.core.maps import cubemap_texel_dirs
+sys.path.insert(0, str(Path(__file__).parents[1] / "envmap"))
+from envmap_helpers import spot_env  # noqa: E402  (the environment test_mip.py also uses)
 from sgpipe.envmap import mip
 from sgpipe.render import opencl
 from sgpipe.render.envdata import CubeChain
@@ -48,24 +52,13 @@ def _kernel_lobe_integral(chain: mip.MipChain, dirs, kappa, taps: int = 16) -> n
     return opencl.read_back(queue, out, (len(q), 4))[:, :3].astype(float)
 
 
-def _spot_env(n: int) -> np.ndarray:
-    """Cube faces (6, n, n, 3): a vertical gradient plus six small bright sources (σ ≈ 3°)."""
-    d = cubemap_texel_dirs(n)
-    c = np.random.default_rng(5).normal(size=(6, 3))
-    c /= np.linalg.norm(c, axis=1, keepdims=True)
-    L = 0.3 + 0.2 * d[..., 1:2] * np.ones(3)
-    for k, ck in enumerate(c):
-        L = L + (10.0 + 10 * k) * np.exp(400.0 * (d @ ck - 1.0))[..., None] * [1.0, 0.8, 0.6]
-    return L
-
-
 def _unit(rng, n):
     d = rng.normal(size=(n, 3))
     return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
 def test_kernel_lobe_integral_matches_numpy_mirror():
-    faces = _spot_env(32)
+    faces = spot_env(32)
     chain = mip.build_cube_chain(faces)
     rng = np.random.default_rng(2)
     dirs = _unit(rng, 256)
