@@ -145,14 +145,20 @@ def test_blurred_fit_gradient_matches_finite_differences():
     np.testing.assert_allclose(grad, fd, rtol=1e-4, atol=1e-6 * np.abs(fd).max())
 
 
+def _irradiance_error(fit, cube):
+    """Relative RMS (per channel) of the fit's irradiance vs the exact texel quadrature on a
+    32×16 lat-long grid of normals."""
+    n = latlong_texel_dirs(16, 32)
+    w = latlong_solid_angles(16, 32)
+    return lightfit.rel_rms(fit.irradiance_exact(n), lightfit.irradiance_map(cube, 16, 32), w)
+
+
 def test_sg_fit_small_source_irradiance_direction_and_power():
     # Sky + a 3-texel sun at 64² (as in the samples): the 8-lobe fit's irradiance vs the exact
     # texel quadrature, and the sun lobe's direction and power vs the texels'.
     cube = sky_sun_cube(64)
     fit = lightfit.fit_sg_light(cube, 8)
-    n = latlong_texel_dirs(16, 32)
-    w = latlong_solid_angles(16, 32)
-    err = lightfit.rel_rms(fit.irradiance_exact(n), lightfit.irradiance_map(cube, 16, 32), w)
+    err = _irradiance_error(fit, cube)
     assert np.all(err < 0.0015), err
     d = cubemap_texel_dirs(64)
     om = cubemap_solid_angles(64)
@@ -170,9 +176,7 @@ def test_sg_fit_small_source_irradiance_direction_and_power():
 def test_sg_fit_boxes_irradiance_and_determinism():
     cube = boxes_cube(32)
     fit = lightfit.fit_sg_light(cube, 5)
-    n = latlong_texel_dirs(16, 32)
-    w = latlong_solid_angles(16, 32)
-    err = lightfit.rel_rms(fit.irradiance_exact(n), lightfit.irradiance_map(cube, 16, 32), w)
+    err = _irradiance_error(fit, cube)
     assert np.all(err < 0.01), err
     again = lightfit.fit_sg_light(cube, 5)
     for a, b in ((fit.axes, again.axes), (fit.sharpness, again.sharpness),
