@@ -112,8 +112,9 @@ def row_extents(src):
 
 
 @njit(cache=True)
-def _tile_rows(uva, g, px, py, pz, cos_r, sin_r, n_src):
-    """Row range [i0, i1] of face g that a cap (p, R) can meet (i0 > i1: none).
+def _tile_rows(uva, g, px, py, pz, cos_r, sin_r, n_src, pad):
+    """Row range [i0, i1] of face g that a cap (p, R) can meet (i0 > i1: none); the rows are
+    those of an n_src grid extended by `pad` texels beyond the face on every side.
 
     The cap boundary is sampled on a circumscribed 16-gon and projected gnomonically; points
     at or behind the face plane are pushed to 'infinity' along their tangential direction.
@@ -121,7 +122,9 @@ def _tile_rows(uva, g, px, py, pz, cos_r, sin_r, n_src):
     ax, ay, az = uva[g, 2, 0], uva[g, 2, 1], uva[g, 2, 2]
     ca = px * ax + py * ay + pz * az
     if sin_r < 0.95:
-        cos_lim = _CORNER_COS * cos_r - np.sqrt(1.0 - _CORNER_COS ** 2) * sin_r
+        e = 1.0 + 2.0 * pad / n_src
+        cc = _CORNER_COS if pad == 0 else 1.0 / np.sqrt(1.0 + 2.0 * e * e)
+        cos_lim = cc * cos_r - np.sqrt(1.0 - cc * cc) * sin_r
         if ca < cos_lim:
             return 1, 0
     if abs(px) < 0.9:
@@ -164,15 +167,16 @@ def _tile_rows(uva, g, px, py, pz, cos_r, sin_r, n_src):
         smax = max(smax, sc)
         tmin = min(tmin, tc)
         tmax = max(tmax, tc)
-    if smax < -1.0 or smin > 1.0 or tmax < -1.0 or tmin > 1.0:
+    e = 1.0 + 2.0 * pad / n_src
+    if smax < -e or smin > e or tmax < -e or tmin > e:
         return 1, 0
-    i0 = int(np.floor((max(tmin, -1.0) + 1.0) * 0.5 * n_src))
-    i1 = int(np.floor((min(tmax, 1.0) + 1.0) * 0.5 * n_src))
-    return max(0, i0), min(n_src - 1, i1)
+    i0 = int(np.floor((max(tmin, -e) + 1.0) * 0.5 * n_src)) + pad
+    i1 = int(np.floor((min(tmax, e) + 1.0) * 0.5 * n_src)) + pad
+    return max(0, i0), min(n_src + 2 * pad - 1, i1)
 
 
 @njit(cache=True)
-def _row_interval(uva, g, px, py, pz, tc, k, n_src):
+def _row_interval(uva, g, px, py, pz, tc, k, n_src, pad):
     """Columns [j0, j1] of the row at face coordinate tc whose centres satisfy c·p >= k
     (solves (a + b·sc)² = k²(q + sc²) on the row's great circle; k > 0)."""
     a = (px * uva[g, 2, 0] + py * uva[g, 2, 1] + pz * uva[g, 2, 2]
@@ -187,7 +191,7 @@ def _row_interval(uva, g, px, py, pz, tc, k, n_src):
     # (if the midpoint is on the cap's side, a + b s > 0). Otherwise take the whole row: the
     # per-tap test in `_accumulate` keeps the sum exact.
     if A > -1e-9:
-        return 0, n_src - 1
+        return 0, n_src + 2 * pad - 1
     disc = B * B - A * Cc
     if disc < 0.0:
         return 1, 0
@@ -198,11 +202,12 @@ def _row_interval(uva, g, px, py, pz, tc, k, n_src):
     hi = max(r1, r2)
     if a + b * 0.5 * (lo + hi) < 0.0:
         return 1, 0
-    if hi < -1.0 or lo > 1.0:
+    e = 1.0 + 2.0 * pad / n_src
+    if hi < -e or lo > e:
         return 1, 0
-    j0 = int(np.floor((max(lo, -1.0) + 1.0) * 0.5 * n_src))
-    j1 = int(np.floor((min(hi, 1.0) + 1.0) * 0.5 * n_src))
-    return max(0, j0), min(n_src - 1, j1)
+    j0 = int(np.floor((max(lo, -e) + 1.0) * 0.5 * n_src)) + pad
+    j1 = int(np.floor((min(hi, e) + 1.0) * 0.5 * n_src)) + pad
+    return max(0, j0), min(n_src + 2 * pad - 1, j1)
 
 
 _F0 = np.float32(0.0)
@@ -264,11 +269,90 @@ def _accumulate_row(r, j0, j1, P, nq, lam, cut, acc):
             acc[5, q] += e2 * wd
 
 
+_FMIN32 = np.float32(-32.0)
+_F32TH = np.float32(1.0 / 32.0)
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def fast_exp32_short(x):
+    """e^x for x in [−32, 0] (clamped), float32: degree-7 Taylor of e^{x/32}, squared five
+    times. Relative error < 1e-7 for x ≥ −12, 1e-4 at −32 (weights ≤ 1e-14 there); four
+    operations fewer than `fast_exp32` on the gather's critical path."""
+    x = min(max(x, _FMIN32), _F0) * _F32TH
+    y = _FC[0] + x * (_FC[1] + x * (_FC[2] + x * (_FC[3] + x * (_FC[4] + x * (
+        _FC[5] + x * (_FC[6] + x * _FC[7]))))))
+    y = y * y
+    y = y * y
+    y = y * y
+    y = y * y
+    return y * y
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def _poly_tap(cx, cy, cz, px, py, pz, scale, zcut, k1, k2, k3, k4, g0, g1, g2, g3):
+    """(w, w·r) of the zonal kernel w = exp(z(k1 + z(k2 + z(k3 + z k4)))), z = scale·(1 − c·p),
+    cut at z > zcut, and r = g0 + z(g1 + z(g2 + z g3)) (the λ-derivative over the kernel)."""
+    dx = cx - px
+    dy = cy - py
+    dz = cz - pz
+    z = scale * _FH * (dx * dx + dy * dy + dz * dz)
+    w = fast_exp32_short(z * (k1 + z * (k2 + z * (k3 + z * k4)))) * (z <= zcut)
+    return w, w * (g0 + z * (g1 + z * (g2 + z * g3)))
+
+
+@njit(cache=True, fastmath=True)
+def _accumulate_poly(r, j0, j1, P, nq, kern, acc):
+    """acc[:, q] += Σ_{j0..j1} E_j (w, w·r)(c_j·p_q) over one source row block with the zonal
+    kernel `kern` (see `_poly_tap`); spread-free masses. Four source taps per pass over the
+    tile's outputs: independent exp chains keep the vector units busy."""
+    scale = np.float32(kern[0])
+    zcut = np.float32(kern[1])
+    k1, k2, k3, k4 = (np.float32(kern[2]), np.float32(kern[3]), np.float32(kern[4]),
+                      np.float32(kern[5]))
+    g0, g1, g2, g3 = (np.float32(kern[6]), np.float32(kern[7]), np.float32(kern[8]),
+                      np.float32(kern[9]))
+    for j in range(j0, j1 + 1, 4):
+        # the last group is padded with copies of tap j1 at zero energy (a scalar tail would
+        # run one exp chain at a time)
+        i1 = min(j + 1, j1)
+        i2 = min(j + 2, j1)
+        i3 = min(j + 3, j1)
+        m1 = np.float32(j + 1 <= j1)
+        m2 = np.float32(j + 2 <= j1)
+        m3 = np.float32(j + 3 <= j1)
+        a0, a1, a2, a3 = r[CX, j], r[CX, i1], r[CX, i2], r[CX, i3]
+        b0, b1, b2, b3 = r[CY, j], r[CY, i1], r[CY, i2], r[CY, i3]
+        c0, c1, c2, c3 = r[CZ, j], r[CZ, i1], r[CZ, i2], r[CZ, i3]
+        e00, e01, e02, e03 = r[E0, j], r[E0, i1] * m1, r[E0, i2] * m2, r[E0, i3] * m3
+        e10, e11, e12, e13 = r[E1, j], r[E1, i1] * m1, r[E1, i2] * m2, r[E1, i3] * m3
+        e20, e21, e22, e23 = r[E2, j], r[E2, i1] * m1, r[E2, i2] * m2, r[E2, i3] * m3
+        for q in range(nq):
+            px = P[0, q]
+            py = P[1, q]
+            pz = P[2, q]
+            w0, d0 = _poly_tap(a0, b0, c0, px, py, pz, scale, zcut, k1, k2, k3, k4, g0, g1, g2, g3)
+            w1, d1 = _poly_tap(a1, b1, c1, px, py, pz, scale, zcut, k1, k2, k3, k4, g0, g1, g2, g3)
+            w2, d2 = _poly_tap(a2, b2, c2, px, py, pz, scale, zcut, k1, k2, k3, k4, g0, g1, g2, g3)
+            w3, d3 = _poly_tap(a3, b3, c3, px, py, pz, scale, zcut, k1, k2, k3, k4, g0, g1, g2, g3)
+            acc[0, q] += e00 * w0 + e01 * w1 + e02 * w2 + e03 * w3
+            acc[1, q] += e10 * w0 + e11 * w1 + e12 * w2 + e13 * w3
+            acc[2, q] += e20 * w0 + e21 * w1 + e22 * w2 + e23 * w3
+            acc[3, q] += e00 * d0 + e01 * d1 + e02 * d2 + e03 * d3
+            acc[4, q] += e10 * d0 + e11 * d1 + e12 * d2 + e13 * d3
+            acc[5, q] += e20 * d0 + e21 * d1 + e22 * d2 + e23 * d3
+
+
 @njit(cache=True, parallel=True)
-def sg_gather(src, ext, uva, n_out, border, lam, cos_cut, tile, out):
+def sg_gather(src, ext, uva, n_out, border, lam, cos_cut, tile, out, kern, pad):
     """Add Γ(p) = Σ_i E_i e^{λ(c_i·p − 1)} and ∂Γ/∂λ to out[f, i, j, 0:6] at the bordered texel
-    centres of a (6, n_out + 2·border, …) cubemap, over the point masses with c_i·p >= cos_cut."""
-    n_src = src.shape[1]
+    centres of a (6, n_out + 2·border, …) cubemap, over the point masses with c_i·p >= cos_cut.
+
+    kern empty: moment-MIP masses (centroid within its texel, spread s²), SG kernel of λ.
+    kern (10,): masses exactly at their texel centres with the zonal kernel of `_poly_tap`
+    instead (the SG itself, or a chain step's difference kernel; `lam` unused).
+    pad: the source faces extend `pad` texels beyond the face (a chain source)."""
+    spread = kern.shape[0] == 0
+    n_src = src.shape[1] - 2 * pad
     m = n_out + 2 * border
     nt = (m + tile - 1) // tile
     h_src = 2.0 / n_src
@@ -290,7 +374,7 @@ def sg_gather(src, ext, uva, n_out, border, lam, cos_cut, tile, out):
                 cos_t = min(cos_t, x * cx + y * cy + z * cz)
         # cap of every output, enlarged by a source texel half-diagonal (a centroid lies in its
         # texel), then by the tile radius: the rows/columns scanned for the whole tile
-        r_out = np.arccos(max(-1.0, min(1.0, cos_cut))) + 0.75 * h_src
+        r_out = np.arccos(max(-1.0, min(1.0, cos_cut))) + (0.75 * h_src if spread else 0.0)
         r_tile = r_out + np.arccos(max(-1.0, min(1.0, cos_t)))
         wide = full or r_tile >= 1.2
         k_tile = np.cos(r_tile)
@@ -308,23 +392,26 @@ def sg_gather(src, ext, uva, n_out, border, lam, cos_cut, tile, out):
         cut = cos_cut - 1.0
         for g in range(6):
             if wide:
-                gi0, gi1 = 0, n_src - 1
+                gi0, gi1 = 0, n_src + 2 * pad - 1
             else:
-                gi0, gi1 = _tile_rows(uva, g, cx, cy, cz, k_tile, s_tile, n_src)
+                gi0, gi1 = _tile_rows(uva, g, cx, cy, cz, k_tile, s_tile, n_src, pad)
             for i in range(gi0, gi1 + 1):
                 e_lo = ext[g, i, 0]
                 if e_lo < 0:
                     continue
                 if wide:
-                    j0, j1 = 0, n_src - 1
+                    j0, j1 = 0, n_src + 2 * pad - 1
                 else:
-                    j0, j1 = _row_interval(uva, g, cx, cy, cz, (i + 0.5) * h_src - 1.0,
-                                           k_tile, n_src)
+                    j0, j1 = _row_interval(uva, g, cx, cy, cz, (i - pad + 0.5) * h_src - 1.0,
+                                           k_tile, n_src, pad)
                 j0 = max(j0, e_lo)
                 j1 = min(j1, ext[g, i, 1])
                 if j0 > j1:
                     continue
-                _accumulate_row(src[g, i], j0, j1, P, nq, lam, cut, acc)
+                if spread:
+                    _accumulate_row(src[g, i], j0, j1, P, nq, lam, cut, acc)
+                else:
+                    _accumulate_poly(src[g, i], j0, j1, P, nq, kern, acc)
         for a in range(i_lo, i_hi):
             for b in range(j_lo, j_hi):
                 q = (a - i_lo) * (j_hi - j_lo) + (b - j_lo)
@@ -397,3 +484,57 @@ def finish_level(acc, lam, norm, extra, values, slopes, plain):
                 else:
                     slopes[f * w + i - extra, j - extra, c - 3] = line[i]
 
+
+
+@njit(cache=True, inline="always")
+def _step5(y):
+    """C⁵ step 0 → 1 on [0, 1] with S(y) + S(1 − y) = 1 (S' ∝ y⁵(1 − y)⁵)."""
+    y = min(max(y, 0.0), 1.0)
+    return y ** 6 * (462.0 + y * (-1980.0 + y * (3465.0 + y * (-3080.0 + y * (
+        1386.0 - 252.0 * y)))))
+
+
+@njit(cache=True, parallel=True)
+def chain_source(acc, n, ext, norm, pad, blend, uva):
+    """Masses of a level's V = acc[..., 0:3]/norm at its texel centres extended `pad` texels
+    beyond each face (row blocks (6, m, NCOMP, m), m = n + 2·pad), weighted for the quadrature
+    of smooth integrands over S²: the midpoint rule in face coordinates (J·h²) times the face's
+    share φ_f of a smooth partition of unity (C⁵ steps of half-width `blend` texels across every
+    face edge, normalised over the faces). See pyramid._chain_nodes."""
+    m = n + 2 * pad
+    h = 2.0 / n
+    d = 2.0 * blend * h
+    out = np.zeros((6, m, NCOMP, m), np.float32)
+    for job in prange(6 * m):
+        f = job // m
+        i = job % m
+        t = (i - pad + 0.5) * h - 1.0
+        for j in range(m):
+            s = (j - pad + 0.5) * h - 1.0
+            x = s * uva[f, 0, 0] + t * uva[f, 1, 0] + uva[f, 2, 0]
+            y = s * uva[f, 0, 1] + t * uva[f, 1, 1] + uva[f, 2, 1]
+            z = s * uva[f, 0, 2] + t * uva[f, 1, 2] + uva[f, 2, 2]
+            r = np.sqrt(x * x + y * y + z * z)
+            x /= r
+            y /= r
+            z /= r
+            total = 0.0
+            own = 0.0
+            for g in range(6):
+                a = x * uva[g, 2, 0] + y * uva[g, 2, 1] + z * uva[g, 2, 2]
+                if a <= 1e-9:
+                    continue
+                sg = (x * uva[g, 0, 0] + y * uva[g, 0, 1] + z * uva[g, 0, 2]) / a
+                tg = (x * uva[g, 1, 0] + y * uva[g, 1, 1] + z * uva[g, 1, 2]) / a
+                ps = (_step5((1.0 + 0.5 * d - abs(sg)) / d)
+                      * _step5((1.0 + 0.5 * d - abs(tg)) / d))
+                total += ps
+                if g == f:
+                    own = ps
+            w = own / total * (1.0 + s * s + t * t) ** -1.5 * h * h / norm if total > 0 else 0.0
+            out[f, i, CX, j] = x
+            out[f, i, CY, j] = y
+            out[f, i, CZ, j] = z
+            for c in range(3):
+                out[f, i, E0 + c, j] = acc[f, ext - pad + i, ext - pad + j, c] * w
+    return out
