@@ -467,23 +467,40 @@ def finish_level(acc, lam, norm, extra, values, slopes, plain):
             for i in range(wp):
                 for j in range(wp):
                     plain[f * wp + i, j, c] = buf[i + extra + 1, j + extra + 1]
-        line = np.empty(m)
-        for i in range(m):
-            for j in range(m):
-                line[j] = buf[i, j]
-            _prefilter_line(line, m)
-            for j in range(m):
-                buf[i, j] = line[j]
-        for j in range(extra, m - extra):
-            for i in range(m):
-                line[i] = buf[i, j]
-            _prefilter_line(line, m)
-            for i in range(extra, m - extra):
+        _prefilter_rows(buf)                # along i (vectorised over j)
+        bt = np.ascontiguousarray(buf.T)
+        _prefilter_rows(bt)                 # along j
+        for i in range(extra, m - extra):
+            for j in range(extra, m - extra):
                 if c < 3:
-                    values[f * w + i - extra, j - extra, c] = line[i]
+                    values[f * w + i - extra, j - extra, c] = bt[j, i]
                 else:
-                    slopes[f * w + i - extra, j - extra, c - 3] = line[i]
+                    slopes[f * w + i - extra, j - extra, c - 3] = bt[j, i]
 
+
+@njit(cache=True)
+def _prefilter_rows(b):
+    """`_prefilter_line` along axis 0 of b (m, k) for all k columns at once (contiguous rows)."""
+    z = _Z
+    n, k_cols = b.shape
+    horizon = min(n, 30)
+    s = np.zeros(k_cols)
+    zk = 1.0
+    for k in range(horizon):
+        for j in range(k_cols):
+            s[j] += zk * b[k, j]
+        zk *= z
+    for j in range(k_cols):
+        b[0, j] = 6.0 * s[j]
+    for k in range(1, n):
+        for j in range(k_cols):
+            b[k, j] = 6.0 * b[k, j] + z * b[k - 1, j]
+    c = z / (z * z - 1.0)
+    for j in range(k_cols):
+        b[n - 1, j] = c * (b[n - 1, j] + z * b[n - 2, j])
+    for k in range(n - 2, -1, -1):
+        for j in range(k_cols):
+            b[k, j] = z * (b[k + 1, j] - b[k, j])
 
 
 @njit(cache=True, inline="always")
@@ -518,9 +535,12 @@ def chain_source(acc, n, ext, norm, pad, blend, uva):
             x /= r
             y /= r
             z /= r
-            total = 0.0
-            own = 0.0
-            for g in range(6):
+            total = 1.0
+            own = 1.0
+            if abs(s) > 1.0 - 0.5 * d or abs(t) > 1.0 - 0.5 * d:    # in a blend: φ_f < 1
+                total = 0.0
+                own = 0.0
+            for g in range(6 if total == 0.0 else 0):
                 a = x * uva[g, 2, 0] + y * uva[g, 2, 1] + z * uva[g, 2, 2]
                 if a <= 1e-9:
                     continue
