@@ -86,12 +86,17 @@ def main() -> int:
     rng = np.random.default_rng(0)
     q = rng.normal(size=(120, 3))
     q /= np.linalg.norm(q, axis=1, keepdims=True)
-    lams = (1.0, 60.0, 700.0, 16384.0)
+    lams = (1.0, 22.0, 60.0, 700.0, 5000.0, 11000.0, 16384.0)
     refs = {lam: _brute(dirs, energy, q, lam) for lam in lams}
 
+    # default; the same with levels stored at 1.5 texels per σ (less margin to 1 %); the
+    # previous algorithm (every level gathered from the map's moment MIP) as the named baseline
+    variants = (("default", {}),
+                ("fast: texels_per_sigma 1.5", {"texels_per_sigma": 1.5}),
+                ("baseline: no chained levels", {"chain_lambda_min": math.inf}))
     runs = {}
-    for label, k_src in (("default", 1.5), ("fast", 0.85)):
-        settings = PyramidSettings(src_texels_per_sigma=k_src)
+    for label, kw in variants:
+        settings = PyramidSettings(**kw)
         can_reset = _reset_peak()
         base, _ = _rss_mb()
         t0 = time.perf_counter()
@@ -105,7 +110,9 @@ def main() -> int:
         t_pyr = min(t_pyr, time.perf_counter() - t1)
         cpu_pyr = time.process_time() - c1
         errs = {lam: float(np.abs(pyr.lookup(q, lam) / refs[lam] - 1).max()) for lam in lams}
-        runs[label] = (k_src, t_pyr, cpu_pyr, peak - base, mem_ratio, errs, os.getloadavg()[0])
+        runs[label] = (pyr, t_pyr, cpu_pyr, peak - base, mem_ratio, size_mb, errs,
+                       os.getloadavg()[0])
+    pyr = runs["default"][0]
 
     # brute force of level 0 (the largest): exact Γ at a sample of its output texels, extrapolated
     n0 = int(pyr.face_res[0])
@@ -118,14 +125,16 @@ def main() -> int:
 
     print(f"threads: {get_num_threads()} (cores available: {len(os.sched_getaffinity(0))})")
     print(f"Γ_L pyramid, {N}²×6 cubemap: {len(pyr.lambdas)} levels (λ {pyr.lambdas[0]:.0f} … "
-          f"{pyr.lambdas[-1]:.2f}, ratio √2; samples + B-spline V + slope), {size_mb:.0f} MB")
+          f"{pyr.lambdas[-1]:.2f}, ratio √2; samples + B-spline V + slope), "
+          f"{pyr.info['chained_levels']} levels chained from the previous one")
     print(f"  brute force, level 0 : {t_bf_level0:9.1f} s (extrapolated from {len(p)} of "
           f"{6 * m0 * m0} texels; exact sum over all {len(dirs)} source texels)")
+    t_base = runs["baseline: no chained levels"][1]
     ok = True
-    for label, (k_src, t_pyr, cpu, grow, mem_ratio, errs, load) in runs.items():
-        print(f"  [{label}: source σ/h >= {k_src}]")
+    for label, (pyr_v, t_pyr, cpu, grow, mem_ratio, size_mb, errs, load) in runs.items():
+        print(f"  [{label}] {size_mb:.0f} MB")
         print(f"    pyramid build      : {t_pyr:9.2f} s (target ≤ {TARGET_S:.1f} s; {cpu:.2f} "
-              f"CPU-s; load average {load:.1f})")
+              f"CPU-s; load average {load:.1f}); baseline/this = {t_base / t_pyr:.2f}×")
         print(f"    ratio pyramid/brute: {t_pyr / t_bf_level0:9.2e} (whole pyramid vs one level)")
         print(f"    peak memory growth : {grow:9.0f} MB = {mem_ratio:.2f} × pyramid "
               f"(target < {TARGET_MEM:.0f}×)")
