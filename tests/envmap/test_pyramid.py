@@ -24,10 +24,11 @@ def boxes():
 def test_levels_log_spaced_from_finest_texel_to_one():
     s = PyramidSettings()
     lams, res = pyramid_levels(128, s)
-    assert lams[0] == pytest.approx((128 / (2 * s.texels_per_sigma)) ** 2)
+    assert lams[0] == pytest.approx((128 / (2 * s.finest_texels_per_sigma)) ** 2)
     np.testing.assert_allclose(lams[:-1] / lams[1:], s.ratio)
     assert lams[-1] <= s.lambda_min < lams[-2]
-    assert res[0] == 128 and np.all(np.diff(res) <= 0) and res[-1] >= s.min_res
+    assert res[0] == min(128, np.ceil(2 * s.texels_per_sigma * np.sqrt(lams[0])))
+    assert np.all(np.diff(res) <= 0) and res[-1] >= s.min_res
     # broad levels are small: resolution follows σ = 1/√λ
     assert np.all(res[res > s.min_res] >= 2 * s.texels_per_sigma * np.sqrt(lams[res > s.min_res]) - 1)
 

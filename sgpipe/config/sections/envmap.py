@@ -18,12 +18,14 @@ class EnvmapSection:
     pyramid_ratio: float = doc("Γ_L pyramid: λ ratio between consecutive levels (√2 keeps the "
                                "λ interpolation within ~1 %).", 1.4142135623730951, gt=1.0, le=4.0)
     pyramid_texels_per_sigma: float = doc("Γ_L pyramid: output texels per kernel σ = 1/√λ at a "
-                                          "face centre (sets λ_0 = (N/2k)² and each level's "
-                                          "resolution).", 2.0, ge=1.0, le=8.0)
+                                          "face centre (each level's resolution; λ_0 = (N/4)², "
+                                          "σ = 2 finest texels). Below 1.4 the chained levels' "
+                                          "quadrature loses accuracy.", 1.5, ge=1.4, le=8.0)
     pyramid_lambda_min: float = doc("Γ_L pyramid: levels continue down to the first λ <= this.",
                                     0.25, gt=0.0, le=4.0)
     pyramid_source_texels_per_sigma: float = doc(
-        "Γ_L pyramid: source MIP texels per σ used by the gather (accuracy vs speed).", 1.5,
+        "Γ_L pyramid: for the broad levels gathered from the map's moment MIP (λ < 20; sharper "
+        "levels are chained from the previous one): its texels per σ (accuracy vs speed).", 1.5,
         ge=0.5, le=8.0)
     pyramid_bright_factor: float = doc(
         "Texels brighter than this × the median go to the exact 'bright' layer.", 16.0, gt=1.0)
