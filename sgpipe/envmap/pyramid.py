@@ -5,11 +5,14 @@ S(λ) = 2π(1 − e^{−2λ})/λ, plus the log-slope m_ℓ(p) = ∂ln Γ_L/∂ln
 (cubic Hermite of ln Γ_L in ln λ). Both are stored as uniform cubic B-spline coefficients on a
 bordered cubemap (see docs/ARTIFACTS.md, `envmap/`).
 
-Build: the cubemap texels become point masses (E = L·Ω at the texel centre); a moment-preserving
-MIP keeps, per merged texel, the energy, its energy-weighted centroid and spread. Each level is a
-direct gather from the coarsest MIP level that still samples its kernel finely enough, split in
-a "dim" layer (bounded contrast: short kernel tails) and a sparse "bright" layer (sun, lamps:
-finer source and long tails), so a tiny bright source keeps its exact position.
+Build: the cubemap texels become point masses (E = L·Ω at the texel centre), split in a "dim"
+layer (bounded contrast: short kernel tails) and a sparse "bright" layer (sun, lamps: long
+tails; kept as exact points beside the levels when small). Level 0 is a direct gather of the
+masses. Each sharper level below it (λ ≥ `chain_lambda_min`) is computed from the previous
+level's samples with the exact zonal difference kernel (sgkernel.py) and a smooth quadrature
+across the cube edges (`_chain_source`): far fewer taps than a gather from the map. The broad
+levels are direct gathers from a moment-preserving MIP of the masses (energy, energy-weighted
+centroid and spread per merged texel) that still samples their kernel finely enough.
 """
 from __future__ import annotations
 
@@ -347,7 +350,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     t_chain = max(s.tail_chain, t_bright) if brt is not None else s.tail_chain
     values, slopes, samples = [], [], []
     ext = BORDER + _EXTRA
-    chain = None            # the previous level's V samples as masses (V·Ω at texel centres)
+    chain = None            # the previous level as quadrature masses (`_chain_source`)
     steps = []
     for idx, (lam, n) in enumerate(zip(lams, res)):
         sigma = 1.0 / math.sqrt(lam)
