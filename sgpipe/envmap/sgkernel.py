@@ -4,8 +4,9 @@ Level b is computed from level a (λ_a > λ_b) instead of from the map: on S² t
 compose by multiplying their Legendre coefficients (Funk–Hecke), and the normalized SG
 K_λ(x) = e^{λ(x−1)}/S(λ) has k_l(λ) = I_{l+½}(λ)/I_{½}(λ). So V_b = V_a ⊗ Δ exactly for the
 zonal "difference kernel" with Δ_l = k_l(λ_b)/k_l(λ_a). Δ is not an SG (SG ⊗ SG is not an SG:
-2.6e-3 … 0.5 off for λ 16384 … 64), but for λ_a ≳ 100 it is exp of a quartic in u = 1 − x to
-≤ 1e-5; `difference_kernel` returns that fit in the gather's `kern` layout.
+2.6e-3 … 0.5 off for λ 16384 … 64), but it is exp of a quartic in u = 1 − x to ≤ 1e-5 for
+λ_a ≥ 128 (4e-4 at 32 → 22.6, 1e-3 at 22.6 → 16: the pyramid chains down to λ 20);
+`difference_kernel` returns that fit in the gather's `kern` layout.
 """
 from __future__ import annotations
 
@@ -14,6 +15,8 @@ import math
 import numpy as np
 from numba import njit
 from scipy.special import ive
+
+from sgpipe.core.sg import sg_integral
 
 _NU = 48                                # fit nodes on [0, u_cut]
 
@@ -47,10 +50,6 @@ def legendre_series(coef, x):
     return out
 
 
-def _sg_norm(lam):
-    return -2.0 * math.pi * math.expm1(-2.0 * lam) / lam
-
-
 def _dsg_norm(lam):
     """dS/dλ of S(λ) = 2π(1 − e^{−2λ})/λ."""
     e = math.exp(-2.0 * lam)
@@ -65,7 +64,8 @@ def sg_kernel(lam: float, tail: float) -> tuple[np.ndarray, float]:
 
 def difference_kernel(lam_a: float, lam_b: float, tail: float = 4.5):
     """Chain step a → b: (kern, amplitude, fit error) such that, over the level-a samples as
-    masses E = V_a·Ω, Γ_b = amplitude · Σ E w and ∂Γ_b/∂λ_b = amplitude · Σ E w r (`_poly_tap`).
+    quadrature masses E = V_a·w (pyramid._chain_source), Γ_b = amplitude · Σ E k and
+    ∂Γ_b/∂λ_b = amplitude · Σ E k r with k, r the kernel and ratio of `_pyramid_jit._poly_tap`.
 
     The kernels are S_b·Δ and S_b'·Δ + S_b·∂Δ/∂λ_b, cut at `tail` standard deviations of Δ
     (σ² = 1/λ_d, 1/λ_d = 1/λ_b − 1/λ_a) with the amplitude renormalised so the cut kernel still
@@ -76,7 +76,7 @@ def difference_kernel(lam_a: float, lam_b: float, tail: float = 4.5):
     ka, _ = sg_legendre(lam_a, lmax)
     kb, dkb = sg_legendre(lam_b, lmax)
     keep = ka > 1e-300
-    s_b, ds_b = _sg_norm(lam_b), _dsg_norm(lam_b)
+    s_b, ds_b = float(sg_integral(lam_b, 1.0)), _dsg_norm(lam_b)
     coef = np.zeros((2, lmax + 1))
     coef[0, keep] = kb[keep] / ka[keep]
     coef[1, keep] = (ds_b * kb[keep] + s_b * dkb[keep]) / ka[keep]
