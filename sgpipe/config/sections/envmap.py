@@ -19,8 +19,10 @@ class EnvmapSection:
                                "λ interpolation within ~1 %).", 1.4142135623730951, gt=1.0, le=4.0)
     pyramid_texels_per_sigma: float = doc("Γ_L pyramid: output texels per kernel σ = 1/√λ at a "
                                           "face centre (each level's resolution; λ_0 = (N/4)², "
-                                          "σ = 2 finest texels). Below 1.4 the chained levels' "
-                                          "quadrature loses accuracy.", 1.5, ge=1.4, le=8.0)
+                                          "σ = 2 finest texels). 1.5 builds 1.75× faster with "
+                                          "less margin to 1 % (a 304-texel sun in the levels: "
+                                          "1.1 %); below 1.4 the chained levels' quadrature loses "
+                                          "accuracy.", 2.0, ge=1.4, le=8.0)
     pyramid_lambda_min: float = doc("Γ_L pyramid: levels continue down to the first λ <= this.",
                                     0.25, gt=0.0, le=4.0)
     pyramid_source_texels_per_sigma: float = doc(
