@@ -70,8 +70,12 @@ class PyramidSettings:
                                          # exact point masses instead of pyramid levels
     chain_lambda_min: float = 20.0       # levels with λ >= this (below level 0) are computed
                                          # from the previous level with the exact difference
-                                         # kernel (sgkernel.py; its fit loosens below ~20);
-                                         # broader ones from the moment MIP of the map
+                                         # kernel (sgkernel.py) while its fit is within
+    chain_max_fit_error: float = 5e-4    # this (ratio √2: 4e-4 at λ 22.6, 1e-3 at 16; smaller
+                                         # ratios fit worse: 1.1 → 1e-3 at λ 64); the levels
+                                         # after the chain stops come from the moment MIP
+    chain_min_sampling: float = 0.8      # and the previous level samples the step's
+                                         # integrand at >= this many texels per its width
     tail_chain: float = 4.5              # difference kernel cut at this many of its σ
 
 
@@ -348,10 +352,25 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     # kept in the levels need the longer tail of their dynamic range (a 5·10⁴ disk sun at 4.5:
     # 1.6 % off near it, at 6: 0.5 %)
     t_chain = max(s.tail_chain, t_bright) if brt is not None else s.tail_chain
+    # the chain plan: level idx ≥ 1 comes from level idx − 1 while λ, the previous level's
+    # sampling and the kernel fit allow. The quadrature of V_a·Δ on level a's grid (pitch h at
+    # a face centre) is off by ~e^{−2π²(σ_e/h)²}, σ_e² = (1 − λ_b/λ_a)/λ_a the product's
+    # width: σ_e/h ≥ 0.8 keeps it ≤ 3e-6 per level (ratio √2, 2 texels per σ: 1.08; ratio 1.1:
+    # 0.6, 8e-4 per level, 2 % after 25 levels)
+    kernels = {}
+    for idx in range(1, len(lams)):
+        if lams[idx] < s.chain_lambda_min * (1 - 1e-9):
+            break
+        sigma_e = math.sqrt((1.0 - lams[idx] / lams[idx - 1]) / lams[idx - 1])
+        if sigma_e * res[idx - 1] / 2.0 < s.chain_min_sampling:
+            break
+        step = difference_kernel(float(lams[idx - 1]), float(lams[idx]), t_chain)
+        if step[2] > s.chain_max_fit_error:
+            break
+        kernels[idx] = step
     values, slopes, samples = [], [], []
     ext = BORDER + _EXTRA
     chain = None            # the previous level as quadrature masses (`_chain_source`)
-    steps = []
     for idx, (lam, n) in enumerate(zip(lams, res)):
         sigma = 1.0 / math.sqrt(lam)
         acc = np.zeros((6, n + 2 * ext, n + 2 * ext, 6))
@@ -364,8 +383,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                     _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile,
                                   acc, kern, 0)
         elif chain is not None:     # from the previous level (exact difference kernel)
-            kern, amp, err = difference_kernel(float(lams[idx - 1]), float(lam), t_chain)
-            steps.append(err)
+            kern, amp, _ = kernels[idx]
             cos_cut = max(-2.0, 1.0 - kern[1] / kern[0])
             _pj.sg_gather(chain[0], chain[1], FACE_UVA, int(n), ext, float(lam), cos_cut,
                           s.tile, acc, kern, _CHAIN_PAD)
@@ -387,21 +405,20 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         values.append(vals)
         slopes.append(slps)
         samples.append(smp)
-        chain = None
-        if idx + 1 < len(lams) and lams[idx + 1] >= s.chain_lambda_min * (1 - 1e-9):
-            chain = _chain_source(acc, int(n), ext, float(sg_norm(lam)))
+        chain = _chain_source(acc, int(n), ext, float(sg_norm(lam))) if idx + 1 in kernels else None
         # keep memory bounded: drop source MIP levels finer than the next level taken from the
         # map needs (chained levels need none)
-        later = lams[idx + 1:][lams[idx + 1:] < s.chain_lambda_min * (1 - 1e-9)]
-        if len(later):
-            nxt = 1.0 / math.sqrt(float(later[0]))
+        later = [j for j in range(idx + 1, len(lams)) if j not in kernels]
+        if later:
+            nxt = 1.0 / math.sqrt(float(lams[later[0]]))
             dim.release_below(dim.pick(nxt, s.src_texels_per_sigma))
             if brt is not None:
                 brt.release_below(brt.pick(nxt, s.bright_src_texels_per_sigma))
     # mean of what the levels hold (the map minus the point set): their λ → 0 limit
     mean = (energy.sum(axis=(0, 1, 2)) - point_energy.sum(axis=0)) / (4.0 * np.pi)
     info = {"tau_bright": tau, "bright_texels": n_bright, "tail_bright": t_bright,
-            "chained_levels": len(steps), "chain_fit_error": max(steps, default=0.0),
+            "chained_levels": len(kernels),
+            "chain_fit_error": max((k[2] for k in kernels.values()), default=0.0),
             "tail_dim": s.tail_dim, "points": len(point_dirs),
             "build_s": time.perf_counter() - t0}
     levels_cube = cube.copy()

@@ -21,8 +21,9 @@ class EnvmapSection:
                                           "face centre (each level's resolution; λ_0 = (N/4)², "
                                           "σ = 2 finest texels). 1.5 builds 1.75× faster with "
                                           "less margin to 1 % (a 304-texel sun in the levels: "
-                                          "1.1 %); below 1.4 the chained levels' quadrature loses "
-                                          "accuracy.", 2.0, ge=1.4, le=8.0)
+                                          "1.1 %); below 1.5 the levels are too coarse to chain "
+                                          "and all come from the map (slower).", 2.0, ge=1.0,
+                                          le=8.0)
     pyramid_lambda_min: float = doc("Γ_L pyramid: levels continue down to the first λ <= this.",
                                     0.25, gt=0.0, le=4.0)
     pyramid_source_texels_per_sigma: float = doc(
