@@ -126,7 +126,7 @@ def main() -> int:
     print(f"threads: {get_num_threads()} (cores available: {len(os.sched_getaffinity(0))})")
     print(f"Γ_L pyramid, {N}²×6 cubemap: {len(pyr.lambdas)} levels (λ {pyr.lambdas[0]:.0f} … "
           f"{pyr.lambdas[-1]:.2f}, ratio √2; samples + B-spline V + slope), "
-          f"{pyr.info['chained_levels']} levels chained from the previous one")
+          f"{pyr.info['chained_levels']} levels chained from sharper ones")
     print(f"  brute force, level 0 : {t_bf_level0:9.1f} s (extrapolated from {len(p)} of "
           f"{6 * m0 * m0} texels; exact sum over all {len(dirs)} source texels)")
     t_base = runs["baseline: no chained levels"][1]

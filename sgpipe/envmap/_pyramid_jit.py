@@ -112,9 +112,10 @@ def row_extents(src):
 
 
 @njit(cache=True)
-def _tile_rows(uva, g, px, py, pz, cos_r, sin_r, n_src, pad):
-    """Row range [i0, i1] of face g that a cap (p, R) can meet (i0 > i1: none); the rows are
-    those of an n_src grid extended by `pad` texels beyond the face on every side.
+def _tile_rows(uva, g, px, py, pz, cos_r, sin_r, h, c0, m):
+    """Row range [i0, i1] of face g that a cap (p, R) can meet (i0 > i1: none); the source
+    grid has m rows and columns with centres at c0 + i·h (face coordinates, may extend beyond
+    the face).
 
     The cap boundary is sampled on a circumscribed 16-gon and projected gnomonically; points
     at or behind the face plane are pushed to 'infinity' along their tangential direction.
@@ -122,8 +123,8 @@ def _tile_rows(uva, g, px, py, pz, cos_r, sin_r, n_src, pad):
     ax, ay, az = uva[g, 2, 0], uva[g, 2, 1], uva[g, 2, 2]
     ca = px * ax + py * ay + pz * az
     if sin_r < 0.95:
-        e = 1.0 + 2.0 * pad / n_src
-        cc = _CORNER_COS if pad == 0 else 1.0 / np.sqrt(1.0 + 2.0 * e * e)
+        e = max(1.0, -(c0 - 0.5 * h), c0 + (m - 0.5) * h)
+        cc = 1.0 / np.sqrt(1.0 + 2.0 * e * e)      # widest angle of the grid from the axis
         cos_lim = cc * cos_r - np.sqrt(1.0 - cc * cc) * sin_r
         if ca < cos_lim:
             return 1, 0
@@ -167,16 +168,17 @@ def _tile_rows(uva, g, px, py, pz, cos_r, sin_r, n_src, pad):
         smax = max(smax, sc)
         tmin = min(tmin, tc)
         tmax = max(tmax, tc)
-    e = 1.0 + 2.0 * pad / n_src
-    if smax < -e or smin > e or tmax < -e or tmin > e:
+    lo = c0 - 0.5 * h
+    hi = c0 + (m - 0.5) * h
+    if smax < lo or smin > hi or tmax < lo or tmin > hi:
         return 1, 0
-    i0 = int(np.floor((max(tmin, -e) + 1.0) * 0.5 * n_src)) + pad
-    i1 = int(np.floor((min(tmax, e) + 1.0) * 0.5 * n_src)) + pad
-    return max(0, i0), min(n_src + 2 * pad - 1, i1)
+    i0 = int(np.floor((max(tmin, lo) - c0) / h + 0.5))
+    i1 = int(np.floor((min(tmax, hi) - c0) / h + 0.5))
+    return max(0, i0), min(m - 1, i1)
 
 
 @njit(cache=True)
-def _row_interval(uva, g, px, py, pz, tc, k, n_src, pad):
+def _row_interval(uva, g, px, py, pz, tc, k, h, c0, m):
     """Columns [j0, j1] of the row at face coordinate tc whose centres satisfy c·p >= k
     (solves (a + b·sc)² = k²(q + sc²) on the row's great circle; k > 0)."""
     a = (px * uva[g, 2, 0] + py * uva[g, 2, 1] + pz * uva[g, 2, 2]
@@ -191,7 +193,7 @@ def _row_interval(uva, g, px, py, pz, tc, k, n_src, pad):
     # (if the midpoint is on the cap's side, a + b s > 0). Otherwise take the whole row: the
     # per-tap test in `_accumulate` keeps the sum exact.
     if A > -1e-9:
-        return 0, n_src + 2 * pad - 1
+        return 0, m - 1
     disc = B * B - A * Cc
     if disc < 0.0:
         return 1, 0
@@ -202,12 +204,13 @@ def _row_interval(uva, g, px, py, pz, tc, k, n_src, pad):
     hi = max(r1, r2)
     if a + b * 0.5 * (lo + hi) < 0.0:
         return 1, 0
-    e = 1.0 + 2.0 * pad / n_src
-    if hi < -e or lo > e:
+    glo = c0 - 0.5 * h
+    ghi = c0 + (m - 0.5) * h
+    if hi < glo or lo > ghi:
         return 1, 0
-    j0 = int(np.floor((max(lo, -e) + 1.0) * 0.5 * n_src)) + pad
-    j1 = int(np.floor((min(hi, e) + 1.0) * 0.5 * n_src)) + pad
-    return max(0, j0), min(n_src + 2 * pad - 1, j1)
+    j0 = int(np.floor((max(lo, glo) - c0) / h + 0.5))
+    j1 = int(np.floor((min(hi, ghi) - c0) / h + 0.5))
+    return max(0, j0), min(m - 1, j1)
 
 
 _F0 = np.float32(0.0)
@@ -343,19 +346,20 @@ def _accumulate_poly(r, j0, j1, P, nq, kern, acc):
 
 
 @njit(cache=True, parallel=True)
-def sg_gather(src, ext, uva, n_out, border, lam, cos_cut, tile, out, kern, pad):
+def sg_gather(src, ext, uva, n_out, border, lam, cos_cut, tile, out, kern, h_src, c0):
     """Add Γ(p) = Σ_i E_i e^{λ(c_i·p − 1)} and ∂Γ/∂λ to out[f, i, j, 0:6] at the bordered texel
     centres of a (6, n_out + 2·border, …) cubemap, over the point masses with c_i·p >= cos_cut.
 
     kern empty: moment-MIP masses (centroid within its texel, spread s²), SG kernel of λ.
     kern (10,): masses exactly at their texel centres with the zonal kernel of `_poly_tap`
     instead (the SG itself, or a chain step's difference kernel; `lam` unused).
-    pad: the source faces extend `pad` texels beyond the face (a chain source)."""
+    The source grid: m = src.shape[1] rows/columns per face with centres at c0 + i·h_src in
+    face coordinates (a map level: h_src = 2/n, c0 = −1 + h_src/2; a chain source extends
+    beyond the face and may be subsampled)."""
     spread = kern.shape[0] == 0
-    n_src = src.shape[1] - 2 * pad
+    m_src = src.shape[1]
     m = n_out + 2 * border
     nt = (m + tile - 1) // tile
-    h_src = 2.0 / n_src
     full = cos_cut <= -1.0 + 1e-12
     for job in prange(6 * nt * nt):
         f = job // (nt * nt)
@@ -392,18 +396,18 @@ def sg_gather(src, ext, uva, n_out, border, lam, cos_cut, tile, out, kern, pad):
         cut = cos_cut - 1.0
         for g in range(6):
             if wide:
-                gi0, gi1 = 0, n_src + 2 * pad - 1
+                gi0, gi1 = 0, m_src - 1
             else:
-                gi0, gi1 = _tile_rows(uva, g, cx, cy, cz, k_tile, s_tile, n_src, pad)
+                gi0, gi1 = _tile_rows(uva, g, cx, cy, cz, k_tile, s_tile, h_src, c0, m_src)
             for i in range(gi0, gi1 + 1):
                 e_lo = ext[g, i, 0]
                 if e_lo < 0:
                     continue
                 if wide:
-                    j0, j1 = 0, n_src + 2 * pad - 1
+                    j0, j1 = 0, m_src - 1
                 else:
-                    j0, j1 = _row_interval(uva, g, cx, cy, cz, (i - pad + 0.5) * h_src - 1.0,
-                                           k_tile, n_src, pad)
+                    j0, j1 = _row_interval(uva, g, cx, cy, cz, c0 + i * h_src, k_tile,
+                                           h_src, c0, m_src)
                 j0 = max(j0, e_lo)
                 j1 = min(j1, ext[g, i, 1])
                 if j0 > j1:
@@ -494,22 +498,23 @@ def _step5(y):
 
 
 @njit(cache=True, parallel=True)
-def chain_source(acc, n, ext, norm, pad, blend, uva):
-    """Masses of a level's V = acc[..., 0:3]/norm at its texel centres extended `pad` texels
-    beyond each face (row blocks (6, m, NCOMP, m), m = n + 2·pad), weighted for the quadrature
+def chain_source(acc, n, ext, norm, pad, blend, uva, step):
+    """Masses of a level's V = acc[..., 0:3]/norm at every `step`-th of its texel centres
+    extended `pad` texels beyond each face (row blocks (6, m, NCOMP, m), m = ⌈(n + 2·pad)/step⌉,
+    centres at c0 + i·step·h, c0 = −1 + (½ − pad)·h, h = 2/n), weighted for the quadrature
     of smooth integrands over S²: the midpoint rule in face coordinates (J·h²) times the face's
     share φ_f of a smooth partition of unity (C⁵ steps of half-width `blend` texels across every
     face edge, normalised over the faces). See pyramid._chain_source."""
-    m = n + 2 * pad
+    m = (n + 2 * pad + step - 1) // step
     h = 2.0 / n
     d = 2.0 * blend * h
     out = np.zeros((6, m, NCOMP, m), np.float32)
     for job in prange(6 * m):
         f = job // m
         i = job % m
-        t = (i - pad + 0.5) * h - 1.0
+        t = (step * i - pad + 0.5) * h - 1.0
         for j in range(m):
-            s = (j - pad + 0.5) * h - 1.0
+            s = (step * j - pad + 0.5) * h - 1.0
             x = s * uva[f, 0, 0] + t * uva[f, 1, 0] + uva[f, 2, 0]
             y = s * uva[f, 0, 1] + t * uva[f, 1, 1] + uva[f, 2, 1]
             z = s * uva[f, 0, 2] + t * uva[f, 1, 2] + uva[f, 2, 2]
@@ -533,10 +538,11 @@ def chain_source(acc, n, ext, norm, pad, blend, uva):
                 total += ps
                 if g == f:
                     own = ps
-            w = own / total * (1.0 + s * s + t * t) ** -1.5 * h * h / norm if total > 0 else 0.0
+            w = (own / total * (1.0 + s * s + t * t) ** -1.5 * (step * h) ** 2 / norm
+                 if total > 0 else 0.0)
             out[f, i, CX, j] = x
             out[f, i, CY, j] = y
             out[f, i, CZ, j] = z
             for c in range(3):
-                out[f, i, E0 + c, j] = acc[f, ext - pad + i, ext - pad + j, c] * w
+                out[f, i, E0 + c, j] = acc[f, ext - pad + step * i, ext - pad + step * j, c] * w
     return out

@@ -8,8 +8,8 @@ bordered cubemap (see docs/ARTIFACTS.md, `envmap/`).
 Build: the cubemap texels become point masses (E = L·Ω at the texel centre), split in a "dim"
 layer (bounded contrast: short kernel tails) and a sparse "bright" layer (sun, lamps: long
 tails; kept as exact points beside the levels when small). Level 0 is a direct gather of the
-masses. Each sharper level below it (λ ≥ `chain_lambda_min`) is computed from the previous
-level's samples with the exact zonal difference kernel (sgkernel.py) and a smooth quadrature
+masses. Each sharper level below it (λ ≥ `chain_lambda_min`) is computed from the samples of
+the level two (or one) above with the exact zonal difference kernel (sgkernel.py) and a smooth quadrature
 across the cube edges (`_chain_source`): far fewer taps than a gather from the map. The broad
 levels are direct gathers from a moment-preserving MIP of the masses (energy, energy-weighted
 centroid and spread per merged texel) that still samples their kernel finely enough.
@@ -69,12 +69,12 @@ class PyramidSettings:
     max_points: int = 256                # a bright layer of at most this many texels is kept as
                                          # exact point masses instead of pyramid levels
     chain_lambda_min: float = 20.0       # levels with λ >= this (below level 0) are computed
-                                         # from the previous level with the exact difference
+                                         # from a sharper level with the exact difference
                                          # kernel (sgkernel.py) while its fit is within
     chain_max_fit_error: float = 5e-4    # this (ratio √2: 4e-4 at λ 22.6, 1e-3 at 16; smaller
                                          # ratios fit worse: 1.1 → 1e-3 at λ 64); the levels
                                          # after the chain stops come from the moment MIP
-    chain_min_sampling: float = 0.8      # and the previous level samples the step's
+    chain_min_sampling: float = 0.7      # and the source level samples the step's
                                          # integrand at >= this many texels per its width
     tail_chain: float = 4.5              # difference kernel cut at this many of its σ
 
@@ -309,21 +309,29 @@ def hermite_ln(va, ma, la, vb, mb, lb, lam, t):
 _NO_KERN = np.zeros(0)
 
 
-_CHAIN_PAD = 4      # chain source: texels kept beyond each face edge
-_CHAIN_BLEND = 3.5  # half-width of the faces' partition-of-unity blend, in texels
+_CHAIN_PAD = 7      # chain source: texels kept beyond each face edge (a subsampled grid must
+                    # still reach past the blend)
+_CHAIN_BLEND = 5.0  # half-width of the faces' partition-of-unity blend, in texels
 
 
-def _chain_source(acc: np.ndarray, n: int, ext: int, norm: float):
+def _map_grid(n: int) -> tuple[float, float]:
+    """(h, c0) of a plain cubemap face grid: centres at c0 + i·h."""
+    return 2.0 / n, -1.0 + 1.0 / n
+
+
+def _chain_source(acc: np.ndarray, n: int, ext: int, norm: float, step: int):
     """A level's V = Γ/S on its grid extended _CHAIN_PAD texels beyond each face (from the
     gather's accumulator, border `ext`) as quadrature masses at the texel centres: the sources
     of the next chained level. The weights are the midpoint rule in each face's gnomonic
     coordinates (J·h², J = (1+s²+t²)^{−3/2}, h = 2/n) times the face's share of a smooth
     partition of unity across the edges, so φ_f·J is smooth and vanishes towards the extended
-    grid's rim: no edge or corner error terms; a bump at a cube corner integrates to 1.5e-5 at
-    n = 24, 3e-6 at n = 64 (texel solid angles at the centres: 1.3e-3, 1.8e-4; as the chain's
-    weights they left 3e-4 per level near the corners, 4e-3 after eleven levels)."""
-    src = _pj.chain_source(acc, n, ext, norm, _CHAIN_PAD, _CHAIN_BLEND, FACE_UVA)
-    return src, _pj.row_extents(src)
+    grid's rim: no edge or corner error terms (texel solid angles at the centres as the
+    chain's weights left 3e-4 per level near the corners, 4e-3 after eleven levels). `step` 2
+    keeps every other texel (the blend must stay wide on that grid: at 3.5 texels the
+    subsampled chain lost 7e-4 per level near the edges, at 5 it matches `step` 1)."""
+    src = _pj.chain_source(acc, n, ext, norm, _CHAIN_PAD, _CHAIN_BLEND, FACE_UVA, step)
+    h = 2.0 / n
+    return src, _pj.row_extents(src), step * h, -1.0 + (0.5 - _CHAIN_PAD) * h
 
 
 def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> Pyramid:
@@ -352,25 +360,31 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     # kept in the levels need the longer tail of their dynamic range (a 5·10⁴ disk sun at 4.5:
     # 1.6 % off near it, at 6: 0.5 %)
     t_chain = max(s.tail_chain, t_bright) if brt is not None else s.tail_chain
-    # the chain plan: level idx ≥ 1 comes from level idx − 1 while λ, the previous level's
-    # sampling and the kernel fit allow. The quadrature of V_a·Δ on level a's grid (pitch h at
-    # a face centre) is off by ~e^{−2π²(σ_e/h)²}, σ_e² = (1 − λ_b/λ_a)/λ_a the product's
-    # width: σ_e/h ≥ 0.8 keeps it ≤ 3e-6 per level (ratio √2, 2 texels per σ: 1.08; ratio 1.1:
-    # 0.6, 8e-4 per level, 2 % after 25 levels)
-    kernels = {}
-    for idx in range(1, len(lams)):
-        if lams[idx] < s.chain_lambda_min * (1 - 1e-9):
+    # the chain plan: level b ≥ 1 comes from a sharper level a while λ, a's sampling and the
+    # kernel fit allow. The quadrature of V_a·Δ on a's grid (pitch h at a face centre) is off by
+    # ~e^{−2π²(σ_e/h)²}, σ_e² = (1 − λ_b/λ_a)/λ_a the integrand's width. Preferred: a = b − 2
+    # (λ ratio 2) on every other texel of a (σ_e/h = 0.71 at 2 texels per σ: ~5e-5 per level,
+    # 0.6× the taps of a = b − 1 on all its texels, σ_e/h = 1.08); ratio 1.1 would give 0.6
+    # (8e-4 per level, 2 % after 25 levels) and is refused.
+    plan = {}                   # b -> (a, step, (kern, amp, fit error))
+    for b in range(1, len(lams)):
+        if lams[b] < s.chain_lambda_min * (1 - 1e-9):
             break
-        sigma_e = math.sqrt((1.0 - lams[idx] / lams[idx - 1]) / lams[idx - 1])
-        if sigma_e * res[idx - 1] / 2.0 < s.chain_min_sampling:
+        for a, step in ((b - 2, 2), (b - 1, 1)):
+            if a < 0 or (a > 0 and a not in plan):
+                continue
+            sigma_e = math.sqrt((1.0 - lams[b] / lams[a]) / lams[a])
+            if sigma_e * res[a] / (2.0 * step) < s.chain_min_sampling:
+                continue
+            kern = difference_kernel(float(lams[a]), float(lams[b]), t_chain)
+            if kern[2] <= s.chain_max_fit_error:
+                plan[b] = (a, step, kern)
+                break
+        if b not in plan:
             break
-        step = difference_kernel(float(lams[idx - 1]), float(lams[idx]), t_chain)
-        if step[2] > s.chain_max_fit_error:
-            break
-        kernels[idx] = step
     values, slopes, samples = [], [], []
     ext = BORDER + _EXTRA
-    chain = None            # the previous level as quadrature masses (`_chain_source`)
+    sources = {}            # (a, step) -> level a as quadrature masses (`_chain_source`)
     for idx, (lam, n) in enumerate(zip(lams, res)):
         sigma = 1.0 / math.sqrt(lam)
         acc = np.zeros((6, n + 2 * ext, n + 2 * ext, 6))
@@ -381,12 +395,13 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                     kern, _ = sg_kernel(float(lam), tail)
                     cos_cut = max(-2.0, 1.0 - tail * tail / (2.0 * lam))
                     _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile,
-                                  acc, kern, 0)
-        elif chain is not None:     # from the previous level (exact difference kernel)
-            kern, amp, _ = kernels[idx]
+                                  acc, kern, *_map_grid(src.shape[1]))
+        elif idx in plan:   # from a sharper level (exact difference kernel)
+            a, step, (kern, amp, _) = plan[idx]
+            src, ex, h_src, c0 = sources.pop((a, step))
             cos_cut = max(-2.0, 1.0 - kern[1] / kern[0])
-            _pj.sg_gather(chain[0], chain[1], FACE_UVA, int(n), ext, float(lam), cos_cut,
-                          s.tile, acc, kern, _CHAIN_PAD)
+            _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,
+                          kern, h_src, c0)
             acc *= amp
         else:               # broad levels: from the moment MIP of the map
             for mip, k_src, tail in ((dim, s.src_texels_per_sigma, s.tail_dim),
@@ -396,7 +411,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                 src, ex = mip.source(sigma, k_src)
                 cos_cut = max(-2.0, 1.0 - tail * tail / (2.0 * lam))
                 _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,
-                              _NO_KERN, 0)
+                              _NO_KERN, *_map_grid(src.shape[1]))
         w = int(n) + 2 * BORDER
         vals = np.empty((6 * w, w, 3), np.float32)
         slps = np.empty((6 * w, w, 3), np.float32)
@@ -405,10 +420,12 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         values.append(vals)
         slopes.append(slps)
         samples.append(smp)
-        chain = _chain_source(acc, int(n), ext, float(sg_norm(lam))) if idx + 1 in kernels else None
+        for a, step, _ in plan.values():
+            if a == idx:
+                sources[(a, step)] = _chain_source(acc, int(n), ext, float(sg_norm(lam)), step)
         # keep memory bounded: drop source MIP levels finer than the next level taken from the
         # map needs (chained levels need none)
-        later = [j for j in range(idx + 1, len(lams)) if j not in kernels]
+        later = [j for j in range(idx + 1, len(lams)) if j not in plan]
         if later:
             nxt = 1.0 / math.sqrt(float(lams[later[0]]))
             dim.release_below(dim.pick(nxt, s.src_texels_per_sigma))
@@ -417,8 +434,8 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     # mean of what the levels hold (the map minus the point set): their λ → 0 limit
     mean = (energy.sum(axis=(0, 1, 2)) - point_energy.sum(axis=0)) / (4.0 * np.pi)
     info = {"tau_bright": tau, "bright_texels": n_bright, "tail_bright": t_bright,
-            "chained_levels": len(kernels),
-            "chain_fit_error": max((k[2] for k in kernels.values()), default=0.0),
+            "chained_levels": len(plan),
+            "chain_fit_error": max((p[2][2] for p in plan.values()), default=0.0),
             "tail_dim": s.tail_dim, "points": len(point_dirs),
             "build_s": time.perf_counter() - t0}
     levels_cube = cube.copy()

@@ -171,9 +171,9 @@ def test_sharper_than_level_0_extrapolates_towards_the_map():
 
 
 def test_chained_levels_match_brute_force_at_corners_edges_and_sun():
-    """Levels below level 0 come from the previous level (exact difference kernel, smooth
+    """Levels below level 0 come from sharper levels (exact difference kernel, smooth
     quadrature): on a 128² map (chained levels λ 724 … 22.6) every level stays within 1e-3 of
-    brute force for λ ≥ 64 (measured ≤ 3.5e-4) and 2e-3 below (1.1e-3 at λ 22.6, where the
+    brute force for λ ≥ 64 (measured ≤ 4.4e-4) and 2e-3 below (7.9e-4 at λ 22.6, where the
     kernel fit loosens), near the cube corners and edges too, where texel solid-angle weights
     drifted to 4e-3."""
     from .envmap_helpers import SUN

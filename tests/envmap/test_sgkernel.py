@@ -75,6 +75,11 @@ def test_difference_kernel_composes_to_the_sharper_sg(lam_a, tol, tol_d):
     np.testing.assert_allclose(gotd, refd, rtol=0, atol=tol_d * np.abs(refd).max())
 
 
+def _face0(s, t):
+    v = s * FACE_UVA[0, 0] + t * FACE_UVA[0, 1] + FACE_UVA[0, 2]
+    return v / np.linalg.norm(v)
+
+
 def _extended_acc(n, ext, fn):
     """An accumulator (6, m, m, 6) holding fn(direction) at every texel centre of a cubemap of
     resolution n with border `ext` (directions beyond the face on its extended plane)."""
@@ -89,11 +94,12 @@ def _extended_acc(n, ext, fn):
     return acc
 
 
-@pytest.mark.parametrize("n", [24, 64])
-def test_chain_quadrature_integrates_smooth_functions(n):
+@pytest.mark.parametrize("n, step", [(24, 1), (64, 1), (48, 2), (128, 2)])
+def test_chain_quadrature_integrates_smooth_functions(n, step):
     """The chained levels' quadrature (midpoint rule per face × a smooth partition of unity
-    across the edges): ∫ 1 = 4π, ∫ x² = 4π/3, ∫ a smooth bump across a cube corner, to ≤ 3e-5
-    relative (texel solid angles at the centres: the bump 1.3e-3 / 1.8e-4 off)."""
+    across the edges), on all texels or every other one: ∫ 1 = 4π, ∫ x² = 4π/3, ∫ a smooth
+    bump across a cube corner, to ≤ 3e-5 relative (texel solid angles at the centres: the bump
+    1.3e-3 / 1.8e-4 off at n = 24 / 64)."""
     corner = np.array([1.0, 1.0, 1.0]) / math.sqrt(3.0)
 
     def fn(v):
@@ -102,8 +108,12 @@ def test_chain_quadrature_integrates_smooth_functions(n):
 
     ext = 7
     acc = _extended_acc(n, ext, fn)
-    src, _ = _chain_source(acc, n, ext, 1.0)
+    src, _, h, c0 = _chain_source(acc, n, ext, 1.0, step)
     total = src[:, :, _pj.E0:_pj.E2 + 1, :].astype(np.float64).sum(axis=(0, 1, 3))
     ref = np.array([4 * math.pi, 4 * math.pi / 3, 2 * math.pi * (1 - math.exp(-40.0)) / 20.0])
     np.testing.assert_allclose(total, ref, rtol=3e-5)
-    assert src.shape == (6, n + 2 * _CHAIN_PAD, _pj.NCOMP, n + 2 * _CHAIN_PAD)
+    m = (n + 2 * _CHAIN_PAD + step - 1) // step
+    assert src.shape == (6, m, _pj.NCOMP, m) and h == step * 2.0 / n
+    # the row-block directions are the grid's: centres at c0 + i·h on face 0 (+X)
+    np.testing.assert_allclose(src[0, m // 2, _pj.CX:_pj.CZ + 1, 0], _face0(c0, c0 + (m // 2) * h),
+                               atol=1e-6)

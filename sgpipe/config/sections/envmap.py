@@ -28,7 +28,7 @@ class EnvmapSection:
                                     0.25, gt=0.0, le=4.0)
     pyramid_source_texels_per_sigma: float = doc(
         "Γ_L pyramid: for the broad levels gathered from the map's moment MIP (λ < 20; sharper "
-        "levels are chained from the previous one): its texels per σ (accuracy vs speed).", 1.5,
+        "levels are chained from sharper ones): its texels per σ (accuracy vs speed).", 1.5,
         ge=0.5, le=8.0)
     pyramid_bright_factor: float = doc(
         "Texels brighter than this × the median go to the exact 'bright' layer.", 16.0, gt=1.0)
