@@ -55,7 +55,7 @@ class PyramidSettings:
 
     ratio: float = math.sqrt(2.0)        # λ_ℓ / λ_ℓ₊₁
     texels_per_sigma: float = 2.0        # output texel pitch at a face centre = σ / this
-                                         # (1.5: 0.57× the build time, but the real sky_sun
+                                         # (1.5: 0.65× the build time, but the real sky_sun
                                          # at 512², sun in the levels, 0.36 → 1.1 % off)
     finest_texels_per_sigma: float = 2.0  # λ_0: σ = this many finest texels (face centre)
     lambda_min: float = 0.25             # levels continue down to the first λ <= this

@@ -19,9 +19,9 @@ class EnvmapSection:
                                "λ interpolation within ~1 %).", 1.4142135623730951, gt=1.0, le=4.0)
     pyramid_texels_per_sigma: float = doc("Γ_L pyramid: output texels per kernel σ = 1/√λ at a "
                                           "face centre (each level's resolution; λ_0 = (N/4)², "
-                                          "σ = 2 finest texels). 1.5 builds 1.75× faster with "
+                                          "σ = 2 finest texels). 1.5 builds 1.5× faster with "
                                           "less margin to 1 % (a 304-texel sun in the levels: "
-                                          "1.1 %); below 1.5 the levels are too coarse to chain "
+                                          "1.1 %); below ~1.3 the levels are too coarse to chain "
                                           "and all come from the map (slower).", 2.0, ge=1.0,
                                           le=8.0)
     pyramid_lambda_min: float = doc("Γ_L pyramid: levels continue down to the first λ <= this.",
