@@ -31,19 +31,24 @@ def _exp_nonpos(x):
 
 
 @njit(cache=True, parallel=True, fastmath=True)
-def sg_blur_sums(q, dT, eT, lam):
-    """out_i = Σ_j e^{λ(q_i·d_j − 1)} e_j (Wang09 eq 2 kernel over texel masses), λ <= 32."""
+def _zonal_sums(q, dT, eT, lam, clamped_cos):
+    """out_i = Σ_j k(q_i·d_j) e_j with k(c) = max(0, c) (clamped_cos) or e^{λ(c − 1)}; the
+    kernel choice is loop-invariant, so the compiler unswitches the loop and both vectorise."""
     m = dT.shape[1]
     out = np.empty((q.shape[0], 3))
     for i in prange(q.shape[0]):
         a0 = 0.0
         a1 = 0.0
         a2 = 0.0
-        qx = lam * q[i, 0]
-        qy = lam * q[i, 1]
-        qz = lam * q[i, 2]
+        qx = q[i, 0]
+        qy = q[i, 1]
+        qz = q[i, 2]
         for j in range(m):
-            w = _exp_nonpos(min(qx * dT[0, j] + qy * dT[1, j] + qz * dT[2, j] - lam, 0.0))
+            c = qx * dT[0, j] + qy * dT[1, j] + qz * dT[2, j]
+            if clamped_cos:
+                w = max(c, 0.0)
+            else:
+                w = _exp_nonpos(min(lam * (c - 1.0), 0.0))
             a0 += w * eT[0, j]
             a1 += w * eT[1, j]
             a2 += w * eT[2, j]
@@ -53,27 +58,16 @@ def sg_blur_sums(q, dT, eT, lam):
     return out
 
 
-@njit(cache=True, parallel=True, fastmath=True)
+@njit(cache=True)
+def sg_blur_sums(q, dT, eT, lam):
+    """out_i = Σ_j e^{λ(q_i·d_j − 1)} e_j (Wang09 eq 2 kernel over texel masses), λ <= 32."""
+    return _zonal_sums(q, dT, eT, lam, False)
+
+
+@njit(cache=True)
 def clamped_cos_sums(n, dT, eT):
     """out_i = Σ_j max(0, n_i·d_j) e_j: the texel quadrature of E(n) = ∫ L max(0, n·ω) dω."""
-    m = dT.shape[1]
-    out = np.empty((n.shape[0], 3))
-    for i in prange(n.shape[0]):
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
-        nx = n[i, 0]
-        ny = n[i, 1]
-        nz = n[i, 2]
-        for j in range(m):
-            c = max(nx * dT[0, j] + ny * dT[1, j] + nz * dT[2, j], 0.0)
-            a0 += c * eT[0, j]
-            a1 += c * eT[1, j]
-            a2 += c * eT[2, j]
-        out[i, 0] = a0
-        out[i, 1] = a1
-        out[i, 2] = a2
-    return out
+    return _zonal_sums(n, dT, eT, 0.0, True)
 
 
 @njit(cache=True, parallel=True)
