@@ -392,7 +392,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
             for mip, tail in ((dim, s.tail_dim), (brt, t_bright)):
                 if mip is not None:
                     src, ex = mip.level(0)
-                    kern, _ = sg_kernel(float(lam), tail)
+                    kern = sg_kernel(float(lam), tail)
                     cos_cut = max(-2.0, 1.0 - tail * tail / (2.0 * lam))
                     _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile,
                                   acc, kern, *_map_grid(src.shape[1]))

@@ -56,10 +56,10 @@ def _dsg_norm(lam):
     return 2.0 * math.pi * (2.0 * lam * e - (1.0 - e)) / (lam * lam)
 
 
-def sg_kernel(lam: float, tail: float) -> tuple[np.ndarray, float]:
-    """`kern` of the plain SG e^{λ(x−1)} (Γ and ∂Γ/∂λ over point masses), amplitude 1."""
+def sg_kernel(lam: float, tail: float) -> np.ndarray:
+    """`kern` of the plain SG e^{λ(x−1)} (Γ and ∂Γ/∂λ over point masses; no amplitude)."""
     return np.array([lam, 0.5 * tail * tail, -1.0, 0.0, 0.0, 0.0,
-                     0.0, -1.0 / lam, 0.0, 0.0]), 1.0
+                     0.0, -1.0 / lam, 0.0, 0.0])
 
 
 def difference_kernel(lam_a: float, lam_b: float, tail: float = 4.5):
