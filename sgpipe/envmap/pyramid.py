@@ -24,6 +24,7 @@ import numpy as np
 
 from sgpipe.core.maps import cubemap_solid_angles, cubemap_texel_dirs
 from sgpipe.envmap import _pyramid_jit as _pj
+from sgpipe.envmap import _rows_jit as _rj
 from sgpipe.envmap._cube_jit import FACE_UVA, cube_texel_dirs_jit, sample_bordered
 from sgpipe.envmap.maps import faces_to_image
 from sgpipe.envmap.mip import bordered_box_level
@@ -77,6 +78,15 @@ class PyramidSettings:
     chain_min_sampling: float = 0.7      # and the source level samples the step's
                                          # integrand at >= this many texels per its width
     tail_chain: float = 4.5              # difference kernel cut at this many of its σ
+    direct_levels: int = 2               # the sharpest levels come straight from the map's
+                                         # texels (level 1 chained from level 0 would need a
+                                         # row kernel of 1.08 output texels per σ: too coarse
+                                         # for the rows' B-spline; the SG has 2, a ratio-2
+                                         # chain step 2.8)
+    rows_lambda_min: float = 2000.0      # kernels with λ_d >= this are summed row by row
+                                         # (_rows_jit: two passes of ~10–25 taps instead of
+                                         # ~100–800 per output; its cross term is 4e-4 … 2e-3
+                                         # of a tap at weight 1e-2 for λ_d 2048 … 1024)
 
 
 def pyramid_levels(n_finest: int, s: PyramidSettings) -> tuple[np.ndarray, np.ndarray]:
@@ -334,6 +344,35 @@ def _chain_source(acc: np.ndarray, n: int, ext: int, norm: float, step: int):
     return src, _pj.row_extents(src), step * h, -1.0 + (0.5 - _CHAIN_PAD) * h
 
 
+def _row_gather(src, ex, h_src, c0, kern, n_out, ext, cos_cut, tile, acc, lam_min) -> bool:
+    """Add Γ, ∂Γ/∂λ of the zonal kernel `kern` (the gather's layout) over the masses `src` to
+    acc: each face's own rows by the row-factorised passes (_rows_jit), the other faces' masses
+    by the 2-D gather. False (nothing added) when the kernel is too broad for the rows: λ_d below
+    `lam_min`, or feet drifting ≥ 0.95 samples in the shortest block."""
+    lam_d, zcut = float(kern[0]), float(kern[1])
+    if lam_d < lam_min:
+        return False
+    m_src = src.shape[1]
+    dev, foot = _rj.row_plan(m_src, float(h_src), float(c0), lam_d, zcut, int(n_out), int(ext))
+    if (_rj.BLOCK - 1) * dev >= 0.95:
+        return False
+    h_o = 2.0 / n_out
+    # samples beyond the bordered outputs at each end of a row: the feet's offset, the B-spline
+    # taps and a run-in for the prefilter's mirror boundary (0.268¹⁰ ≈ 2e-6)
+    margin = int(math.ceil(foot / h_o)) + 14
+    m1 = int(n_out) + 2 * (ext + margin) + _rj.BLOCK + 6
+    x0 = -1.0 + (0.5 - ext - margin) * h_o
+    kappa = 2.0 * kern[3] - kern[2] / lam_d
+    k6 = np.ascontiguousarray(kern[:6], dtype=np.float64)
+    C = _rj.row_pass1(src, float(h_src), float(c0), k6, int(n_out), x0, m1)
+    _rj.row_pass2(C, float(h_src), float(c0), k6, float(kappa), float(kern[6]), float(kern[7]),
+                  int(n_out), int(ext), x0, acc)
+    del C
+    _pj.sg_gather(src, ex, FACE_UVA, int(n_out), ext, lam_d, cos_cut, tile, acc, kern,
+                  float(h_src), float(c0), True)
+    return True
+
+
 def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> Pyramid:
     """Γ_L pyramid of a (6, N, N, 3) cubemap (OpenGL faces; rows ↔ t, columns ↔ s)."""
     s = settings or PyramidSettings()
@@ -367,11 +406,12 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     # 0.6× the taps of a = b − 1 on all its texels, σ_e/h = 1.08); ratio 1.1 would give 0.6
     # (8e-4 per level, 2 % after 25 levels) and is refused.
     plan = {}                   # b -> (a, step, (kern, amp, fit error))
-    for b in range(1, len(lams)):
+    n_direct = max(1, min(s.direct_levels, len(lams)))
+    for b in range(n_direct, len(lams)):
         if lams[b] < s.chain_lambda_min * (1 - 1e-9):
             break
         for a, step in ((b - 2, 2), (b - 1, 1)):
-            if a < 0 or (a > 0 and a not in plan):
+            if a < 0 or (a >= n_direct and a not in plan):
                 continue
             sigma_e = math.sqrt((1.0 - lams[b] / lams[a]) / lams[a])
             if sigma_e * res[a] / (2.0 * step) < s.chain_min_sampling:
@@ -388,20 +428,26 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     for idx, (lam, n) in enumerate(zip(lams, res)):
         sigma = 1.0 / math.sqrt(lam)
         acc = np.zeros((6, n + 2 * ext, n + 2 * ext, 6))
-        if idx == 0:        # the finest level: straight from the map's texels
+        if idx < n_direct:  # the sharpest levels: straight from the map's texels
             for mip, tail in ((dim, s.tail_dim), (brt, t_bright)):
                 if mip is not None:
                     src, ex = mip.level(0)
                     kern = sg_kernel(float(lam), tail)
                     cos_cut = max(-2.0, 1.0 - tail * tail / (2.0 * lam))
-                    _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile,
-                                  acc, kern, *_map_grid(src.shape[1]))
+                    grid = _map_grid(src.shape[1])
+                    # the sparse bright layer: the 2-D gather visits only its texels
+                    if mip is brt or not _row_gather(src, ex, *grid, kern, int(n), ext, cos_cut,
+                                                     s.tile, acc, s.rows_lambda_min):
+                        _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut,
+                                      s.tile, acc, kern, *grid)
         elif idx in plan:   # from a sharper level (exact difference kernel)
             a, step, (kern, amp, _) = plan[idx]
             src, ex, h_src, c0 = sources.pop((a, step))
             cos_cut = max(-2.0, 1.0 - kern[1] / kern[0])
-            _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,
-                          kern, h_src, c0)
+            if not _row_gather(src, ex, h_src, c0, kern, int(n), ext, cos_cut, s.tile, acc,
+                               s.rows_lambda_min):
+                _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,
+                              kern, h_src, c0)
             acc *= amp
         else:               # broad levels: from the moment MIP of the map
             for mip, k_src, tail in ((dim, s.src_texels_per_sigma, s.tail_dim),

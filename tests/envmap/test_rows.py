@@ -1,0 +1,116 @@
+"""The row-factorised gather of the sharp Γ_L levels (_rows_jit, pyramid._row_gather) against the
+2-D sum over the same masses (`_pyramid_jit.sg_gather`, kernel cut further out), seams and
+corners included."""
+import math
+
+import numpy as np
+import pytest
+
+from sgpipe.core.maps import cubemap_solid_angles, cubemap_texel_dirs
+from sgpipe.envmap import _pyramid_jit as _pj
+from sgpipe.envmap._cube_jit import FACE_UVA, cube_texel_dirs_jit
+from sgpipe.envmap.pyramid import (BORDER, _EXTRA, _chain_source, _map_grid, _point_masses,
+                                   _row_gather, sg_norm)
+from sgpipe.envmap.sgkernel import difference_kernel, sg_kernel
+
+from .envmap_helpers import boxes_cube, sky
+
+N = 256                     # λ_0 = (N/4)² = 4096: sharp enough for the rows
+N_CHAIN = 320               # a ratio-2 chain step λ_d = 6400: rows at a 6σ tail
+EXT = BORDER + _EXTRA
+
+
+def _masses(cube, contrast):
+    """Point masses at the texel centres, single texels at a corner, on an edge and inside a
+    face at `contrast` × the median."""
+    n = cube.shape[1]
+    cube = cube.copy()
+    for f, i, j in ((4, 0, 0), (0, n // 2, n - 1), (2, 37, 101)):
+        cube[f, i, j] = contrast * np.median(cube)
+    energy = cube * cubemap_solid_angles(n)[..., None]
+    src = _point_masses(cube_texel_dirs_jit(n), energy, np.ones(cube.shape[:3], bool))
+    return src, _pj.row_extents(src)
+
+
+@pytest.fixture(scope="module")
+def dim_masses():
+    """What the direct levels sum by rows: the dim layer, contrast ≤ 16 (the pyramid's bright
+    threshold)."""
+    return _masses(sky(cubemap_texel_dirs(N)), 16.0)
+
+
+@pytest.fixture(scope="module")
+def bright_masses():
+    """What a chained level holds when the bright layer stays in the levels: sharp-edged boxes
+    (contrast ~470) and single texels at 10³."""
+    return _masses(boxes_cube(N_CHAIN), 1e3)
+
+
+def _both(src, ex, h_src, c0, kern, ref_kern, n_out):
+    """(rows used, the 2-D sum with `ref_kern` (the same kernel cut further out: ~exact), the
+    rows' result with `kern`) at every bordered output."""
+    ref = np.zeros((6, n_out + 2 * EXT, n_out + 2 * EXT, 6))
+    _pj.sg_gather(src, ex, FACE_UVA, n_out, EXT, float(kern[0]),
+                  1.0 - ref_kern[1] / ref_kern[0], 4, ref, ref_kern, h_src, c0)
+    rows = np.zeros_like(ref)
+    used = _row_gather(src, ex, h_src, c0, kern, n_out, EXT, 1.0 - kern[1] / kern[0], 4, rows,
+                       0.0)
+    return used, ref, rows
+
+
+def _errors(ref, rows):
+    v_err = np.abs(rows[..., :3] / ref[..., :3] - 1.0).max()
+    # the slope only steers the λ interpolation: relative to the derivative's own scale
+    d_scale = np.abs(ref[..., 3:]).max(axis=(1, 2), keepdims=True)
+    d_err = (np.abs(rows[..., 3:] - ref[..., 3:]) / d_scale).max()
+    return v_err, d_err
+
+
+@pytest.mark.parametrize("n_out", [N, 215])
+def test_rows_match_the_2d_sum_for_the_sg(dim_masses, n_out):
+    """Levels 0 and 1 (stored at another resolution) from the map, kernel cut at 4.5σ: every
+    bordered output, across seams and at corners, within 1e-4 of the sum cut at 8σ (the 2-D
+    gather adds the other faces' masses in both)."""
+    src, ex = dim_masses
+    lam = (N / 4.0) ** 2 / (1.0 if n_out == N else math.sqrt(2.0))
+    used, ref, rows = _both(src, ex, *_map_grid(N), sg_kernel(lam, 4.5), sg_kernel(lam, 8.0),
+                            n_out)
+    assert used
+    v_err, d_err = _errors(ref, rows)
+    assert v_err < 1e-4 and d_err < 1e-3, (v_err, d_err)
+
+
+def test_rows_match_the_2d_sum_for_a_chain_step(bright_masses):
+    """A chained level from every other sample of the level two above (the partition-of-unity
+    quadrature masses of `_chain_source`) with the fitted difference kernel cut at 6σ, bright
+    content included: within 5e-4 of the 2-D sum of the same masses and kernel cut at 8σ (the
+    B-spline of the row sums in the tails of the brightest texels)."""
+    src0, ex0 = bright_masses
+    n = N_CHAIN
+    lam_a = (n / 4.0) ** 2
+    lam_b = lam_a / 2.0
+    acc = np.zeros((6, n + 2 * EXT, n + 2 * EXT, 6))
+    kern0 = sg_kernel(lam_a, 8.0)
+    _pj.sg_gather(src0, ex0, FACE_UVA, n, EXT, lam_a, 1.0 - kern0[1] / kern0[0], 4, acc, kern0,
+                  *_map_grid(n))
+    src, ex, h_src, c0 = _chain_source(acc, n, EXT, float(sg_norm(lam_a)), 2)
+    kern, _, _ = difference_kernel(lam_a, lam_b, 6.0)
+    ref_kern, _, _ = difference_kernel(lam_a, lam_b, 8.0)
+    n_out = int(math.ceil(4.0 * math.sqrt(lam_b)))
+    used, ref, rows = _both(src, ex, h_src, c0, kern, ref_kern, n_out)
+    assert used
+    v_err, d_err = _errors(ref, rows)
+    assert v_err < 5e-4 and d_err < 3e-3, (v_err, d_err)
+
+
+def test_rows_refuse_a_broad_kernel(dim_masses):
+    """Too broad for one base index per block of outputs (or below the configured λ_d):
+    nothing added, the caller gathers in 2-D."""
+    src, ex = dim_masses
+    kern = sg_kernel(60.0, 4.5)
+    rows = np.zeros((6, 16 + 2 * EXT, 16 + 2 * EXT, 6))
+    assert not _row_gather(src, ex, *_map_grid(N), kern, 16, EXT, 1.0 - kern[1] / kern[0], 4,
+                           rows, 0.0)
+    assert not rows.any()
+    assert not _row_gather(src, ex, *_map_grid(N), sg_kernel(4096.0, 4.5), N, EXT, 0.0, 4,
+                           rows, 1e4)
