@@ -423,6 +423,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         if b not in plan:
             break
     values, slopes, samples = [], [], []
+    row_levels = 0          # levels whose sharp kernel was summed row by row
     ext = BORDER + _EXTRA
     sources = {}            # (a, step) -> level a as quadrature masses (`_chain_source`)
     for idx, (lam, n) in enumerate(zip(lams, res)):
@@ -435,17 +436,21 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                     kern = sg_kernel(float(lam), tail)
                     cos_cut = max(-2.0, 1.0 - tail * tail / (2.0 * lam))
                     grid = _map_grid(src.shape[1])
-                    # the sparse bright layer: the 2-D gather visits only its texels
-                    if mip is brt or not _row_gather(src, ex, *grid, kern, int(n), ext, cos_cut,
-                                                     s.tile, acc, s.rows_lambda_min):
+                    # (the sparse bright layer: the 2-D gather visits only its texels)
+                    if mip is dim and _row_gather(src, ex, *grid, kern, int(n), ext, cos_cut,
+                                                  s.tile, acc, s.rows_lambda_min):
+                        row_levels += 1
+                    else:
                         _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut,
                                       s.tile, acc, kern, *grid)
         elif idx in plan:   # from a sharper level (exact difference kernel)
             a, step, (kern, amp, _) = plan[idx]
             src, ex, h_src, c0 = sources.pop((a, step))
             cos_cut = max(-2.0, 1.0 - kern[1] / kern[0])
-            if not _row_gather(src, ex, h_src, c0, kern, int(n), ext, cos_cut, s.tile, acc,
-                               s.rows_lambda_min):
+            if _row_gather(src, ex, h_src, c0, kern, int(n), ext, cos_cut, s.tile, acc,
+                           s.rows_lambda_min):
+                row_levels += 1
+            else:
                 _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,
                               kern, h_src, c0)
             acc *= amp
@@ -480,7 +485,8 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     # mean of what the levels hold (the map minus the point set): their λ → 0 limit
     mean = (energy.sum(axis=(0, 1, 2)) - point_energy.sum(axis=0)) / (4.0 * np.pi)
     info = {"tau_bright": tau, "bright_texels": n_bright, "tail_bright": t_bright,
-            "chained_levels": len(plan),
+            "direct_levels": n_direct, "chained_levels": len(plan),   # levels n_direct …
+            "row_levels": row_levels,
             "chain_fit_error": max((p[2][2] for p in plan.values()), default=0.0),
             "tail_dim": s.tail_dim, "points": len(point_dirs),
             "build_s": time.perf_counter() - t0}
