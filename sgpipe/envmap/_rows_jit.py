@@ -55,14 +55,140 @@ _F5_128 = np.float32(5.0 / 128.0)
 _F4 = np.float32(4.0)
 
 
+@njit(cache=True)
+def _frame(uva, key):
+    """(U, V, A) of frame key = 2f + r: r = 0 face f's rows, r = 1 its columns (U, V swapped)."""
+    f = key // 2
+    r = key % 2
+    return uva[f, r], uva[f, 1 - r], uva[f, 2]
+
+
+@njit(cache=True)
+def _candidates(uva, m):
+    """Candidate lines (key, g, family, index): frame key's own rows (r = 0 only) and the rows
+    (family 0) or columns (family 1) of the faces g across the frame's edges parallel to U whose
+    planes contain U."""
+    out = np.empty((12 * 3 * m, 4), np.int64)
+    n = 0
+    for key in range(12):
+        f = key // 2
+        U, V, _ = _frame(uva, key)
+        for g in range(6):
+            if g == f:
+                if key % 2 == 1:
+                    continue
+                fam = 0
+            else:
+                if abs(np.dot(uva[g, 2], V)) < 0.5:
+                    continue            # g is not across an edge parallel to U
+                fam = 0 if abs(np.dot(uva[g, 0], U)) > 0.5 else 1
+            for i in range(m):
+                out[n, 0] = key
+                out[n, 1] = g
+                out[n, 2] = fam
+                out[n, 3] = i
+                n += 1
+    return out[:n]
+
+
+@njit(cache=True, parallel=True)
+def build_lines(src, uva, t_lim, min_ca):
+    """The source masses of every face's two row pencils as lines (the module docstring).
+
+    Frame key = 2f + r of face f: r = 0 (U, V, A) = (U_f, V_f, A_f), its rows; r = 1
+    (V_f, U_f, A_f), its columns. A line of a frame is a plane through U holding masses: f's own
+    rows (r = 0 only), and the rows or columns of the two faces across f's edges parallel to U
+    whose planes also contain U (every neighbour has one such family), |t| ≤ t_lim, masses with
+    c·A > min_ca (the rest is out of any sharp kernel's reach). Returns (key_off (13,), order,
+    t, m_off, m_ca, m_cb, m_s, m_e): lines of frame k at order[key_off[k]:key_off[k+1]] sorted
+    by their frame coordinate t; masses of line ℓ at [m_off[ℓ], m_off[ℓ+1]) with row-local
+    coordinates (c·U, √(1+t²)·c·A), position s = c·U/c·A and energies m_e (3, ·)."""
+    m = src.shape[1]
+    cand = _candidates(uva, m)
+    nc = cand.shape[0]
+    tc = np.empty(nc)
+    cnt = np.zeros(nc, np.int64)
+    for q in prange(nc):
+        U, V, A = _frame(uva, cand[q, 0])
+        g, fam, i = cand[q, 1], cand[q, 2], cand[q, 3]
+        tl = 1e30
+        c = 0
+        for j in range(m):
+            a_ = i if fam == 0 else j
+            b_ = j if fam == 0 else i
+            if src[g, a_, 3, b_] == 0.0 and src[g, a_, 4, b_] == 0.0 and src[g, a_, 5, b_] == 0.0:
+                continue
+            cx, cy, cz = src[g, a_, 0, b_], src[g, a_, 1, b_], src[g, a_, 2, b_]
+            ca_ = cx * A[0] + cy * A[1] + cz * A[2]
+            if ca_ <= min_ca:
+                continue
+            if c == 0:
+                # the line's frame coordinate (the same for every point of its plane)
+                tl = (cx * V[0] + cy * V[1] + cz * V[2]) / ca_
+                if abs(tl) > t_lim:
+                    break
+            c += 1
+        tc[q] = tl
+        cnt[q] = c if abs(tl) <= t_lim else 0
+    # keep the lines with masses, grouped by frame (candidates come in key order)
+    keep = np.nonzero(cnt > 0)[0]
+    n_lines = keep.shape[0]
+    t = np.empty(n_lines)
+    m_off = np.zeros(n_lines + 1, np.int64)
+    key_off = np.zeros(13, np.int64)
+    for ln in range(n_lines):
+        q = keep[ln]
+        t[ln] = tc[q]
+        m_off[ln + 1] = m_off[ln] + cnt[q]
+        key_off[cand[q, 0] + 1] = ln + 1
+    for key in range(12):
+        key_off[key + 1] = max(key_off[key + 1], key_off[key])
+    n_mass = m_off[n_lines]
+    m_ca = np.empty(n_mass, np.float32)
+    m_cb = np.empty(n_mass, np.float32)
+    m_s = np.empty(n_mass, np.float32)
+    m_e = np.empty((3, n_mass), np.float32)
+    for ln in prange(n_lines):
+        q = keep[ln]
+        U, V, A = _frame(uva, cand[q, 0])
+        g, fam, i = cand[q, 1], cand[q, 2], cand[q, 3]
+        sq = math.sqrt(1.0 + t[ln] * t[ln])
+        mi = m_off[ln]
+        for j in range(m):
+            a_ = i if fam == 0 else j
+            b_ = j if fam == 0 else i
+            e0, e1, e2 = src[g, a_, 3, b_], src[g, a_, 4, b_], src[g, a_, 5, b_]
+            if e0 == 0.0 and e1 == 0.0 and e2 == 0.0:
+                continue
+            cx, cy, cz = src[g, a_, 0, b_], src[g, a_, 1, b_], src[g, a_, 2, b_]
+            ca_ = cx * A[0] + cy * A[1] + cz * A[2]
+            if ca_ <= min_ca:
+                continue
+            cu = cx * U[0] + cy * U[1] + cz * U[2]
+            m_ca[mi] = cu
+            m_cb[mi] = sq * ca_
+            m_s[mi] = cu / ca_
+            m_e[0, mi] = e0
+            m_e[1, mi] = e1
+            m_e[2, mi] = e2
+            mi += 1
+    order = np.empty(n_lines, np.int64)
+    for key in range(12):
+        a = key_off[key]
+        b = key_off[key + 1]
+        o = np.argsort(t[a:b])
+        for k in range(b - a):
+            order[a + k] = a + o[k]
+    return key_off, order, t, m_off, m_ca, m_cb, m_s, m_e
+
+
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
-def row_pass1(src, h_src, c0, kern, n_out, x0, m1):
-    """C (6, M, NARR, m1) float32: per face and source row (M = src.shape[1] rows and columns,
-    centres at c0 + i·h_src in face coordinates), B-spline coefficients of C0 = Σ_j E_j e^{P(ẑ)}
-    and C1 = Σ_j E_j ẑ e^{P(ẑ)} (3 channels each) at the row's sample points s_k = x0 + k·h_o
-    (h_o = 2/n_out), ẑ = λ_d(1 − c_j·q_k) cut at ẑ ≤ zcut; kern = (λ_d, zcut, k1, k2, k3, k4).
-    The masses are the energies of `src` (row blocks) at the grid's centres."""
-    n = src.shape[1]
+def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1):
+    """C (L, NARR, m1) float32: per line (`build_lines`), B-spline coefficients of
+    C0 = Σ_j E_j e^{P(ẑ)} and C1 = Σ_j E_j ẑ e^{P(ẑ)} (3 channels each) at the line's sample
+    points s_k = x0 + k·h_o (h_o = 2/n_out) in its frame, ẑ = λ_d(1 − c_j·q_k) cut at
+    ẑ ≤ zcut; kern = (λ_d, zcut, k1, k2, k3, k4)."""
+    n_lines = t_line.shape[0]
     h_o = 2.0 / n_out
     lam = kern[0]
     zcut = kern[1]
@@ -72,13 +198,11 @@ def row_pass1(src, h_src, c0, kern, n_out, x0, m1):
     k4 = np.float32(kern[5])
     cmax = max(-1.0, 1.0 - zcut / lam)
     tau = math.sqrt(max(0.0, 1.0 - cmax * cmax)) / cmax if cmax > 0.0 else 1e3
-    out = np.zeros((6, n, NARR, m1), np.float32)
+    out = np.empty((n_lines, NARR, m1), np.float32)
     lamh = np.float32(0.5 * lam)
     zc = np.float32(zcut)
-    for job in prange(6 * n):
-        f = job // n
-        i = job % n
-        t = c0 + i * h_src
+    for ln in prange(n_lines):
+        t = t_line[ln]
         q = 1.0 + t * t
         sq = math.sqrt(q)
         # row-local coordinates of the samples: (s/r, √(1 + t²)/r) with r = |(s, t, 1)|, so that
@@ -91,14 +215,11 @@ def row_pass1(src, h_src, c0, kern, n_out, x0, m1):
             qa[k] = s * r
             qb[k] = r * sq
         acc = np.zeros((NARR, m1), np.float32)
-        row = src[f, i]
-        for j in range(n):
-            e0 = row[E0, j]
-            e1 = row[E0 + 1, j]
-            e2 = row[E0 + 2, j]
-            if e0 == 0.0 and e1 == 0.0 and e2 == 0.0:
-                continue
-            u = c0 + j * h_src
+        for mj in range(m_off[ln], m_off[ln + 1]):
+            e0 = m_e[0, mj]
+            e1 = m_e[1, mj]
+            e2 = m_e[2, mj]
+            u = np.float64(m_s[mj])
             # the window |φ − φ_j| ≤ φ_max along the row (tan φ = s/√(1 + t²)) in s
             den_lo = sq + u * tau
             den_hi = sq - u * tau
@@ -106,9 +227,8 @@ def row_pass1(src, h_src, c0, kern, n_out, x0, m1):
             hi = sq * (u + sq * tau) / den_hi if den_hi > 1e-9 else 1e9
             ka = max(0, int(math.ceil((lo - x0) / h_o)))
             kz = min(m1 - 1, int(math.floor((hi - x0) / h_o)))
-            r = 1.0 / math.sqrt(q + u * u)
-            ca = np.float32(u * r)
-            cb = np.float32(r * sq)
+            ca = m_ca[mj]
+            cb = m_cb[mj]
             # unsigned indices: numba then emits no negative-index wraparound, which would
             # keep LLVM from vectorising the loop
             uk0 = np.uint64(ka)
@@ -132,7 +252,7 @@ def row_pass1(src, h_src, c0, kern, n_out, x0, m1):
         _prefilter_rows(buf)
         for c in range(NARR):
             for k in range(m1):
-                out[f, i, c, k] = buf[k, c]
+                out[ln, c, k] = buf[k, c]
     return out
 
 
@@ -200,14 +320,13 @@ def _block(p0, q0, p1, q1, p2, q2, a0, b0_, a1, b1_, a2, b2_, us, ir0, kb, jb, b
 
 
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
-def row_pass2(C, h_src, c0, kern, kappa, g0, g1, n_out, ext, x0, out):
+def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, out):
     """out[f, o, j, 0:3] += Γ, out[..., 3:6] += ∂Γ/∂λ at the bordered output texel centres
     (s_j, t_o) = −1 + (j − ext + ½)·2/n_out of a (6, n_out + 2·ext, …) cubemap, from the pass-1
-    coefficients C of each face's own rows (t_i = c0 + i·h_src) for the kernel
-    kern = (λ_d, zcut, k1, k2, k3, k4), its cross term κ and derivative g0 + g1 z (module
-    docstring). The caller checks that the feet drift by < 1 sample per block (`row_plan`)."""
-    n = C.shape[1]
-    m1 = C.shape[3]
+    coefficients C of the lines (`build_lines`) for the kernel kern = (λ_d, zcut, k1 … k4), its
+    cross term κ and derivative g0 + g1 z (module docstring); frame r = 1 (columns) writes
+    transposed."""
+    m1 = C.shape[2]
     h_o = 2.0 / n_out
     m = n_out + 2 * ext
     lam = kern[0]
@@ -222,33 +341,39 @@ def row_pass2(C, h_src, c0, kern, kappa, g0, g1, n_out, ext, x0, out):
     kap = np.float32(kappa)
     nb = (m + BLOCK - 1) // BLOCK
     mp = nb * BLOCK
-    for job in prange(6 * m):
-        f = job // m
+    for job in prange(12 * m):
+        key = job // m
+        f = key // 2
+        r = key % 2
         o = job % m
         t0 = -1.0 + (o - ext + 0.5) * h_o
+        r0max = math.sqrt(1.0 + t0 * t0 + (1.0 + (ext + BLOCK) * h_o) ** 2)
+        p0, p1 = _lines_in_reach(t_line, order, key_off[key], key_off[key + 1], t0, r0max,
+                                 sin_max)
+        if p0 > p1:
+            continue
         us = np.empty(mp, np.float32)
         ir0 = np.empty(mp, np.float32)
-        r0max = 0.0
         for j in range(mp):
             u = -1.0 + (j - ext + 0.5) * h_o
             us[j] = u
-            r0 = math.sqrt(1.0 + u * u + t0 * t0)
-            ir0[j] = 1.0 / r0
-            r0max = max(r0max, r0)
+            ir0[j] = 1.0 / math.sqrt(1.0 + u * u + t0 * t0)
         acc = np.zeros((NARR, mp), np.float32)
-        i0, i1 = _rows_in_reach(t0, r0max, sin_max, h_src, c0, n)
-        for i in range(i0, i1 + 1):
-            ti = c0 + i * h_src
+        for pos in range(p0, p1 + 1):
+            ln = order[pos]
+            ti = t_line[ln]
             a = (1.0 + ti * ti) / (1.0 + t0 * ti)
             d = np.float32((t0 - ti) / math.sqrt(1.0 + ti * ti))
             ai = np.float32(a / h_o)
             bi = np.float32(-x0 / h_o)
-            cr = C[f, i]
+            cr = C[ln]
             # blocks of outputs sharing a base index: their feet drift by (len − 1)|a − 1| < 1
-            # samples against them (5 taps, the foot's fraction takes one); long blocks keep
-            # the vector loop busy
-            blen_max = max(BLOCK, min(mp, BLOCK * int((1.0 + 0.95 / max(abs(a - 1.0), 1e-9))
-                                                      / BLOCK)))
+            # samples against them (5 taps, the foot's fraction takes one); long blocks (a
+            # multiple of the vector width) keep the vector loop busy; near the corners, where
+            # the lines fan out, shorter ones
+            blen_max = min(mp, int(1.0 + 0.95 / max(abs(a - 1.0), 1e-9)))
+            if blen_max >= BLOCK:
+                blen_max -= blen_max % BLOCK
             d2 = np.float64(d) * np.float64(d)
             jb = 0
             while jb < mp:
@@ -270,36 +395,73 @@ def row_pass2(C, h_src, c0, kern, kappa, g0, g1, n_out, ext, x0, out):
         for j in range(m):
             for c in range(3):
                 v = acc[c, j]
-                out[f, o, j, c] += v
-                out[f, o, j, c + 3] += g0 * v + g1 * acc[c + 3, j]
+                dv = g0 * v + g1 * acc[c + 3, j]
+                if r == 0:
+                    out[f, o, j, c] += v
+                    out[f, o, j, c + 3] += dv
+                else:
+                    out[f, j, o, c] += v
+                    out[f, j, o, c + 3] += dv
     return out
 
 
 @njit(cache=True)
-def _rows_in_reach(t0, r0max, sin_max, h_src, c0, n):
-    """Source rows [i0, i1] with |t0 − t_i| ≤ sin h_max · r0 · √(1 + t_i²) for some output of the
-    output row t0 (r0 ≤ r0max)."""
-    tm = abs(t0) + sin_max * r0max * 2.0
+def _lines_in_reach(t_line, order, a, b, t0, r0max, sin_max):
+    """Positions [p0, p1] in order[a:b] (sorted by t) of the lines with
+    |t0 − t_i| ≤ sin h_max · r0 · √(1 + t_i²) for some output of the output row t0."""
+    lo = a
+    hi = b
+    tm = abs(t0) + 4.0 * sin_max * r0max
     dv = sin_max * r0max * math.sqrt(1.0 + tm * tm)
-    i0 = max(0, int(math.ceil((t0 - dv - c0) / h_src)))
-    i1 = min(n - 1, int(math.floor((t0 + dv - c0) / h_src)))
-    return i0, i1
+    # first position with t ≥ t0 − dv, last with t ≤ t0 + dv (binary searches)
+    x = t0 - dv
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if t_line[order[mid]] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    p0 = lo
+    lo = p0
+    hi = b
+    x = t0 + dv
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if t_line[order[mid]] <= x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return p0, lo - 1
 
 
 @njit(cache=True)
-def row_plan(n_src, h_src, c0, lam_d, zcut, n_out, ext):
-    """(largest |a − 1| over the (output row, source row) pairs pass 2 visits, largest foot offset
+def lines_dev(key_off, order, t_line, lam_d, zcut, n_out, ext):
+    """(largest |a − 1| over the (output row, line) pairs pass 2 visits, largest foot offset
     |a·s − s| over their outputs, in face coordinates): the block length and pass-1 margin."""
     h_o = 2.0 / n_out
     m = n_out + 2 * ext
     sin_max = min(1.0, math.sqrt(max(0.0, 1.0 - (1.0 - zcut / lam_d) ** 2)))
     smax = 1.0 + (ext + BLOCK) * h_o
     dev = 0.0
-    for o in range(m):
-        t0 = -1.0 + (o - ext + 0.5) * h_o
-        r0max = math.sqrt(1.0 + smax * smax + t0 * t0)
-        i0, i1 = _rows_in_reach(t0, r0max, sin_max, h_src, c0, n_src)
-        for i in range(i0, i1 + 1):
-            ti = c0 + i * h_src
-            dev = max(dev, abs((1.0 + ti * ti) / (1.0 + t0 * ti) - 1.0))
+    for key in range(12):
+        for o in range(m):
+            t0 = -1.0 + (o - ext + 0.5) * h_o
+            r0max = math.sqrt(1.0 + smax * smax + t0 * t0)
+            p0, p1 = _lines_in_reach(t_line, order, key_off[key], key_off[key + 1], t0, r0max,
+                                     sin_max)
+            for pos in range(p0, p1 + 1):
+                ti = t_line[order[pos]]
+                dev = max(dev, abs((1.0 + ti * ti) / (1.0 + t0 * ti) - 1.0))
     return dev, dev * smax
+
+
+def reach_t(lam_d: float, zcut: float, n_out: int, ext: int) -> float:
+    """Largest |t| of a line any bordered output can reach (for `build_lines`)."""
+    h_o = 2.0 / n_out
+    sin_max = min(1.0, math.sqrt(max(0.0, 1.0 - (1.0 - zcut / lam_d) ** 2)))
+    e = 1.0 + (ext + BLOCK) * h_o
+    r0 = math.sqrt(1.0 + 2.0 * e * e)
+    t = e
+    for _ in range(3):
+        t = e + sin_max * r0 * math.sqrt(1.0 + t * t)
+    return t

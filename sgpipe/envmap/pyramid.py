@@ -344,32 +344,33 @@ def _chain_source(acc: np.ndarray, n: int, ext: int, norm: float, step: int):
     return src, _pj.row_extents(src), step * h, -1.0 + (0.5 - _CHAIN_PAD) * h
 
 
-def _row_gather(src, ex, h_src, c0, kern, n_out, ext, cos_cut, tile, acc, lam_min) -> bool:
-    """Add Γ, ∂Γ/∂λ of the zonal kernel `kern` (the gather's layout) over the masses `src` to
-    acc: each face's own rows by the row-factorised passes (_rows_jit), the other faces' masses
-    by the 2-D gather. False (nothing added) when the kernel is too broad for the rows: λ_d below
-    `lam_min`, or feet drifting ≥ 0.95 samples in the shortest block."""
+def _row_gather(src, kern, n_out, ext, acc, lam_min) -> bool:
+    """Add Γ, ∂Γ/∂λ of the zonal kernel `kern` (the gather's layout) over the masses `src` (row
+    blocks) to the bordered accumulator acc by the row-factorised passes (_rows_jit): each
+    face's rows and columns as two pencils of great circles, with the neighbouring faces'
+    masses on the lines of the same pencils. False (nothing added) for λ_d below `lam_min` or a
+    kernel so broad that the lines in reach fan out beyond t = 1.6 (the cross term grows, the
+    blocks get short)."""
     lam_d, zcut = float(kern[0]), float(kern[1])
     if lam_d < lam_min:
         return False
-    m_src = src.shape[1]
-    dev, foot = _rj.row_plan(m_src, float(h_src), float(c0), lam_d, zcut, int(n_out), int(ext))
-    if (_rj.BLOCK - 1) * dev >= 0.95:
+    n_out = int(n_out)
+    t_lim = _rj.reach_t(lam_d, zcut, n_out, ext)
+    if t_lim > 1.6:         # the lines would fan out far beyond the faces
         return False
+    key_off, order, t, m_off, m_ca, m_cb, m_s, m_e = _rj.build_lines(src, FACE_UVA, t_lim, 0.1)
+    _, foot = _rj.lines_dev(key_off, order, t, lam_d, zcut, n_out, int(ext))
     h_o = 2.0 / n_out
     # samples beyond the bordered outputs at each end of a row: the feet's offset, the B-spline
     # taps and a run-in for the prefilter's mirror boundary (0.268¹⁰ ≈ 2e-6)
     margin = int(math.ceil(foot / h_o)) + 14
-    m1 = int(n_out) + 2 * (ext + margin) + _rj.BLOCK + 6
+    m1 = n_out + 2 * (ext + margin) + _rj.BLOCK + 6
     x0 = -1.0 + (0.5 - ext - margin) * h_o
     kappa = 2.0 * kern[3] - kern[2] / lam_d
     k6 = np.ascontiguousarray(kern[:6], dtype=np.float64)
-    C = _rj.row_pass1(src, float(h_src), float(c0), k6, int(n_out), x0, m1)
-    _rj.row_pass2(C, float(h_src), float(c0), k6, float(kappa), float(kern[6]), float(kern[7]),
-                  int(n_out), int(ext), x0, acc)
-    del C
-    _pj.sg_gather(src, ex, FACE_UVA, int(n_out), ext, lam_d, cos_cut, tile, acc, kern,
-                  float(h_src), float(c0), True)
+    C = _rj.row_pass1(t, m_off, m_ca, m_cb, m_s, m_e, k6, n_out, x0, m1)
+    _rj.row_pass2(C, key_off, order, t, k6, float(kappa), float(kern[6]), float(kern[7]),
+                  n_out, int(ext), x0, acc)
     return True
 
 
@@ -437,8 +438,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                     cos_cut = max(-2.0, 1.0 - tail * tail / (2.0 * lam))
                     grid = _map_grid(src.shape[1])
                     # (the sparse bright layer: the 2-D gather visits only its texels)
-                    if mip is dim and _row_gather(src, ex, *grid, kern, int(n), ext, cos_cut,
-                                                  s.tile, acc, s.rows_lambda_min):
+                    if mip is dim and _row_gather(src, kern, n, ext, acc, s.rows_lambda_min):
                         row_levels += 1
                     else:
                         _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut,
@@ -447,8 +447,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
             a, step, (kern, amp, _) = plan[idx]
             src, ex, h_src, c0 = sources.pop((a, step))
             cos_cut = max(-2.0, 1.0 - kern[1] / kern[0])
-            if _row_gather(src, ex, h_src, c0, kern, int(n), ext, cos_cut, s.tile, acc,
-                           s.rows_lambda_min):
+            if _row_gather(src, kern, n, ext, acc, s.rows_lambda_min):
                 row_levels += 1
             else:
                 _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,

@@ -53,8 +53,7 @@ def _both(src, ex, h_src, c0, kern, ref_kern, n_out):
     _pj.sg_gather(src, ex, FACE_UVA, n_out, EXT, float(kern[0]),
                   1.0 - ref_kern[1] / ref_kern[0], 4, ref, ref_kern, h_src, c0)
     rows = np.zeros_like(ref)
-    used = _row_gather(src, ex, h_src, c0, kern, n_out, EXT, 1.0 - kern[1] / kern[0], 4, rows,
-                       0.0)
+    used = _row_gather(src, kern, n_out, EXT, rows, 0.0)
     return used, ref, rows
 
 
@@ -104,13 +103,11 @@ def test_rows_match_the_2d_sum_for_a_chain_step(bright_masses):
 
 
 def test_rows_refuse_a_broad_kernel(dim_masses):
-    """Too broad for one base index per block of outputs (or below the configured λ_d):
-    nothing added, the caller gathers in 2-D."""
+    """Too broad for the rows (lines in reach far beyond the faces), or below the configured
+    λ_d: nothing added, the caller gathers in 2-D."""
     src, ex = dim_masses
     kern = sg_kernel(60.0, 4.5)
     rows = np.zeros((6, 16 + 2 * EXT, 16 + 2 * EXT, 6))
-    assert not _row_gather(src, ex, *_map_grid(N), kern, 16, EXT, 1.0 - kern[1] / kern[0], 4,
-                           rows, 0.0)
+    assert not _row_gather(src, kern, 16, EXT, rows, 0.0)
     assert not rows.any()
-    assert not _row_gather(src, ex, *_map_grid(N), sg_kernel(4096.0, 4.5), N, EXT, 0.0, 4,
-                           rows, 1e4)
+    assert not _row_gather(src, sg_kernel(4096.0, 4.5), N, EXT, rows, 1e4)
