@@ -89,13 +89,9 @@ def cubemap_texel_dirs(res):
 def cubemap_solid_angles(res):
     """Exact texel solid angles (6, res, res) via A(x, y) = atan2(xy, sqrt(x² + y² + 1))."""
     e = np.linspace(-1.0, 1.0, res + 1)
-    x0, x1 = e[:-1][None, :], e[1:][None, :]
-    y0, y1 = e[:-1][:, None], e[1:][:, None]
-
-    def A(x, y):
-        return np.arctan2(x * y, np.sqrt(x * x + y * y + 1.0))
-
-    om = A(x1, y1) - A(x0, y1) - A(x1, y0) + A(x0, y0)
+    x, y = e[None, :], e[:, None]
+    a = np.arctan2(x * y, np.sqrt(x * x + y * y + 1.0))     # A at every texel corner, once
+    om = a[1:, 1:] - a[1:, :-1] - a[:-1, 1:] + a[:-1, :-1]
     return np.broadcast_to(om, (6, res, res)).copy()
 
 

@@ -158,11 +158,12 @@ class _MomentMip:
             self.exts[i] = None
 
 
-def _bright_mask(cube: np.ndarray, factor: float) -> tuple[np.ndarray, float]:
-    lum = cube.sum(axis=-1)
-    mean = float(lum.mean())
-    tau = factor * max(float(np.median(lum)), 1e-3 * mean, 1e-30)
-    return lum > tau, tau
+def _bright_mask(lum: np.ndarray, factor: float) -> tuple[np.ndarray, float, float]:
+    """(texels above factor × the typical luminance, that threshold, the typical luminance:
+    the median, at least 1e-3 × the mean) of a (6, N, N) luminance (channel sum)."""
+    med = max(float(np.median(lum)), 1e-3 * float(lum.mean()), 1e-30)
+    tau = factor * med
+    return lum > tau, tau, med
 
 
 @dataclass
@@ -381,7 +382,8 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     n_fin = cube.shape[1]
     t0 = time.perf_counter()
     lams, res = pyramid_levels(n_fin, s)
-    bright, tau = _bright_mask(cube, s.bright_factor)
+    lum = cube[..., 0] + cube[..., 1] + cube[..., 2]
+    bright, tau, med = _bright_mask(lum, s.bright_factor)
     dirs = cube_texel_dirs_jit(n_fin)
     energy = cube * cubemap_solid_angles(n_fin)[..., None]
     dim = _MomentMip(_point_masses(dirs, energy, ~bright))
@@ -392,8 +394,6 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         point_dirs, point_energy = dirs[bright].copy(), energy[bright].copy()
     brt = _MomentMip(_point_masses(dirs, energy, bright)) if n_bright and not as_points else None
     del dirs
-    lum = cube.sum(-1)
-    med = max(float(np.median(lum)), 1e-3 * float(lum.mean()), 1e-30)
     t_bright = s.tail_bright or float(np.clip(
         math.sqrt(2.0 * math.log(max(float(lum.max()) / med, 1.0) * 1e3)), 4.5, 7.0))
     # a chained level cuts its kernel at t_chain of the difference kernel's σ: bright texels
@@ -429,7 +429,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     sources = {}            # (a, step) -> level a as quadrature masses (`_chain_source`)
     for idx, (lam, n) in enumerate(zip(lams, res)):
         sigma = 1.0 / math.sqrt(lam)
-        acc = np.zeros((6, n + 2 * ext, n + 2 * ext, 6))
+        acc = np.zeros((6, n + 2 * ext, n + 2 * ext, 6), np.float32)
         if idx < n_direct:  # the sharpest levels: straight from the map's texels
             for mip, tail in ((dim, s.tail_dim), (brt, t_bright)):
                 if mip is not None:
@@ -482,17 +482,17 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
             if brt is not None:
                 brt.release_below(brt.pick(nxt, s.bright_src_texels_per_sigma))
     # mean of what the levels hold (the map minus the point set): their λ → 0 limit
-    mean = (energy.sum(axis=(0, 1, 2)) - point_energy.sum(axis=0)) / (4.0 * np.pi)
+    mean = (energy.reshape(-1, 3).sum(axis=0) - point_energy.sum(axis=0)) / (4.0 * np.pi)
     info = {"tau_bright": tau, "bright_texels": n_bright, "tail_bright": t_bright,
             "direct_levels": n_direct, "chained_levels": len(plan),   # levels n_direct …
             "row_levels": row_levels,
             "chain_fit_error": max((p[2][2] for p in plan.values()), default=0.0),
             "tail_dim": s.tail_dim, "points": len(point_dirs),
             "build_s": time.perf_counter() - t0}
-    levels_cube = cube.copy()
+    levels_cube = cube.astype(np.float32)
     if as_points:
         levels_cube[bright] = 0.0
-    raw = bordered_box_level(levels_cube).astype(np.float32)
+    raw = bordered_box_level(levels_cube)
     return Pyramid(lambdas=lams, face_res=res, values=values, slopes=slopes, mean=mean,
                    ratio=s.ratio, info=info, samples=samples, point_dirs=point_dirs,
                    point_energy=point_energy, raw=raw)
