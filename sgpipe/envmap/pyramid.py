@@ -83,7 +83,7 @@ class PyramidSettings:
                                          # row kernel of 1.08 output texels per σ: too coarse
                                          # for the rows' B-spline; the SG has 2, a ratio-2
                                          # chain step 2.8)
-    rows_lambda_min: float = 2000.0      # kernels with λ_d >= this are summed row by row
+    rows_lambda_min: float = 500.0       # kernels with λ_d >= this are summed row by row
                                          # (_rows_jit: two passes of ~10–25 taps instead of
                                          # ~100–800 per output; its cross term is 4e-4 … 2e-3
                                          # of a tap at weight 1e-2 for λ_d 2048 … 1024)
@@ -345,6 +345,9 @@ def _chain_source(acc: np.ndarray, n: int, ext: int, norm: float, step: int):
     return src, _pj.row_extents(src), step * h, -1.0 + (0.5 - _CHAIN_PAD) * h
 
 
+T_LIM_MAX = 1.6
+
+
 def _row_gather(src, kern, n_out, ext, acc, lam_min) -> bool:
     """Add Γ, ∂Γ/∂λ of the zonal kernel `kern` (the gather's layout) over the masses `src` (row
     blocks) to the bordered accumulator acc by the row-factorised passes (_rows_jit): each
@@ -357,7 +360,7 @@ def _row_gather(src, kern, n_out, ext, acc, lam_min) -> bool:
         return False
     n_out = int(n_out)
     t_lim = _rj.reach_t(lam_d, zcut, n_out, ext)
-    if t_lim > 1.6:         # the lines would fan out far beyond the faces
+    if t_lim > T_LIM_MAX:   # the lines would fan out far beyond the faces
         return False
     key_off, order, t, m_off, m_ca, m_cb, m_s, m_e = _rj.build_lines(src, FACE_UVA, t_lim, 0.1)
     _, foot = _rj.lines_dev(key_off, order, t, lam_d, zcut, n_out, int(ext))
@@ -365,7 +368,7 @@ def _row_gather(src, kern, n_out, ext, acc, lam_min) -> bool:
     # samples beyond the bordered outputs at each end of a row: the feet's offset, the B-spline
     # taps and a run-in for the prefilter's mirror boundary (0.268¹⁰ ≈ 2e-6)
     margin = int(math.ceil(foot / h_o)) + 14
-    m1 = n_out + 2 * (ext + margin) + _rj.BLOCK + 6
+    m1 = n_out + 2 * (ext + margin) + 6
     x0 = -1.0 + (0.5 - ext - margin) * h_o
     kappa = 2.0 * kern[3] - kern[2] / lam_d
     k6 = np.ascontiguousarray(kern[:6], dtype=np.float64)
