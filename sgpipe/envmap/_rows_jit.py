@@ -399,6 +399,8 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
             us[j] = u
             ir0[j] = 1.0 / math.sqrt(1.0 + u * u + t0 * t0)
         acc = np.zeros((NARR, m), np.float32)
+        # 1-D row views made once (each view creation is an atomic reference count)
+        a0, a1, a2, b0, b1, b2 = acc[0], acc[1], acc[2], acc[3], acc[4], acc[5]
         for pos in range(p0, p1 + 1):
             ln = order[pos]
             ti = t_line[ln]
@@ -406,7 +408,7 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
             d = np.float32((t0 - ti) / math.sqrt(1.0 + ti * ti))
             ai = np.float32(a / h_o)
             bi = np.float32(-x0 / h_o)
-            cr = C[ln]
+            v0, v1, v2, w0, w1, w2 = C[ln, 0], C[ln, 1], C[ln, 2], C[ln, 3], C[ln, 4], C[ln, 5]
             # blocks of outputs sharing a base index: their feet drift by (len − 1)|a − 1| < 1
             # samples against them (5 taps, the foot's fraction takes one); long blocks, a
             # multiple of VLOOP, run entirely in the vector loop; near the corners, where the
@@ -428,9 +430,8 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
                 tb = ai * us[je] + bi - (blen - 1)
                 kb = int(math.floor(min(ta, tb))) - 1
                 kb = max(0, min(m1 - blen - 5, kb))
-                _block(cr[0], cr[3], cr[1], cr[4], cr[2], cr[5], acc[0], acc[3], acc[1], acc[4],
-                       acc[2], acc[5], us, ir0, kb, jb, blen, d, ai, bi, lam32, zc, k1, k2, k3,
-                       k4, kap)
+                _block(v0, w0, v1, w1, v2, w2, a0, b0, a1, b1, a2, b2, us, ir0, kb, jb, blen, d, ai,
+                       bi, lam32, zc, k1, k2, k3, k4, kap)
                 jb += blen
         for j in range(m):
             for c in range(3):

@@ -348,7 +348,7 @@ def _chain_source(acc: np.ndarray, n: int, ext: int, norm: float, step: int):
 T_LIM_MAX = 1.6
 
 
-def _row_gather(src, kern, n_out, ext, acc, lam_min) -> bool:
+def _row_gather(src, kern, n_out, ext, acc, lam_min, lines_cache=None, t_build=0.0) -> bool:
     """Add Γ, ∂Γ/∂λ of the zonal kernel `kern` (the gather's layout) over the masses `src` (row
     blocks) to the bordered accumulator acc by the row-factorised passes (_rows_jit): each
     face's rows and columns as two pencils of great circles, with the neighbouring faces'
@@ -362,7 +362,18 @@ def _row_gather(src, kern, n_out, ext, acc, lam_min) -> bool:
     t_lim = _rj.reach_t(lam_d, zcut, n_out, ext)
     if t_lim > T_LIM_MAX:   # the lines would fan out far beyond the faces
         return False
-    key_off, order, t, m_off, m_ca, m_cb, m_s, m_e = _rj.build_lines(src, FACE_UVA, t_lim, 0.1)
+    # the lines of a source already built for a level reaching at least as far are reused
+    # (levels 0 and 1 share the map's, built out to t_build); extra lines are out of reach in
+    # pass 2
+    cached = lines_cache.get(id(src)) if lines_cache is not None else None
+    if cached is not None and cached[0] >= t_lim:
+        lines = cached[1]
+    else:
+        t_b = max(t_lim, t_build) if t_build <= T_LIM_MAX else t_lim
+        lines = _rj.build_lines(src, FACE_UVA, t_b, 0.1)
+        if lines_cache is not None:
+            lines_cache[id(src)] = (t_b, lines)
+    key_off, order, t, m_off, m_ca, m_cb, m_s, m_e = lines
     _, foot = _rj.lines_dev(key_off, order, t, lam_d, zcut, n_out, int(ext))
     h_o = 2.0 / n_out
     # samples beyond the bordered outputs at each end of a row: the feet's offset, the B-spline
@@ -428,6 +439,9 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
             break
     values, slopes, samples = [], [], []
     row_levels = 0          # levels whose sharp kernel was summed row by row
+    map_lines = {}          # the map's lines for the direct levels (built for the broadest)
+    t_direct = max(_rj.reach_t(float(lams[i]), 0.5 * s.tail_dim ** 2, int(res[i]), BORDER + _EXTRA)
+                   for i in range(n_direct))
     ext = BORDER + _EXTRA
     sources = {}            # (a, step) -> level a as quadrature masses (`_chain_source`)
     for idx, (lam, n) in enumerate(zip(lams, res)):
@@ -441,7 +455,8 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                     cos_cut = max(-2.0, 1.0 - tail * tail / (2.0 * lam))
                     grid = _map_grid(src.shape[1])
                     # (the sparse bright layer: the 2-D gather visits only its texels)
-                    if mip is dim and _row_gather(src, kern, n, ext, acc, s.rows_lambda_min):
+                    if mip is dim and _row_gather(src, kern, n, ext, acc, s.rows_lambda_min,
+                                                  map_lines, t_direct):
                         row_levels += 1
                     else:
                         _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut,
