@@ -346,8 +346,7 @@ def _accumulate_poly(r, j0, j1, P, nq, kern, acc):
 
 
 @njit(cache=True, parallel=True)
-def sg_gather(src, ext, uva, n_out, border, lam, cos_cut, tile, out, kern, h_src, c0,
-              skip_own=False):
+def sg_gather(src, ext, uva, n_out, border, lam, cos_cut, tile, out, kern, h_src, c0):
     """Add Γ(p) = Σ_i E_i e^{λ(c_i·p − 1)} and ∂Γ/∂λ to out[f, i, j, 0:6] at the bordered texel
     centres of a (6, n_out + 2·border, …) cubemap, over the point masses with c_i·p >= cos_cut.
 
@@ -382,14 +381,6 @@ def sg_gather(src, ext, uva, n_out, border, lam, cos_cut, tile, out, kern, h_src
         r_out = np.arccos(max(-1.0, min(1.0, cos_cut))) + (0.75 * h_src if spread else 0.0)
         r_tile = r_out + np.arccos(max(-1.0, min(1.0, cos_t)))
         wide = full or r_tile >= 1.2
-        if skip_own and not wide:
-            # the tile's cap inside its own face (sine of its angle to each of the face's four
-            # bounding great circles, normals (A ∓ U)/√2, (A ∓ V)/√2): nothing to add
-            pa = cx * uva[f, 2, 0] + cy * uva[f, 2, 1] + cz * uva[f, 2, 2]
-            pu = cx * uva[f, 0, 0] + cy * uva[f, 0, 1] + cz * uva[f, 0, 2]
-            pv = cx * uva[f, 1, 0] + cy * uva[f, 1, 1] + cz * uva[f, 1, 2]
-            if (pa - max(abs(pu), abs(pv))) * 0.7071067811865476 > np.sin(r_tile):
-                continue
         k_tile = np.cos(r_tile)
         s_tile = np.sin(r_tile)
         nq = (i_hi - i_lo) * (j_hi - j_lo)
@@ -404,8 +395,6 @@ def sg_gather(src, ext, uva, n_out, border, lam, cos_cut, tile, out, kern, h_src
         acc = np.zeros((6, nq), np.float32)
         cut = cos_cut - 1.0
         for g in range(6):
-            if skip_own and g == f:
-                continue
             if wide:
                 gi0, gi1 = 0, m_src - 1
             else:

@@ -11,24 +11,31 @@ a chain step's difference kernel: `sgkernel.difference_kernel`):
     K = e^{P(z_h)} e^{P(ẑ)} e^{D},   D = z_h ẑ (2k2 − k1/λ_d) + O(k3 z_h ẑ (z_h + ẑ), z_h ẑ²/λ_d²)
 
 (the SG: D = z_h ẑ/λ_d exactly). With κ = 2k2 − k1/λ_d, e^D ≈ 1 + κ z_h ẑ: relative error
-(κ z_h ẑ)²/2, 2e-6 where the weight e^{−z_h−ẑ} is 1e-2 and λ_d = 16384, 4e-4 … 2e-3 there at
-λ_d 2048 … 1024 (the pyramid uses rows for λ_d ≥ `ROW_LAMBDA_D_MIN`).
+(κ z_h ẑ)²/2, 2e-6 where the weight e^{−z_h−ẑ} is 1e-2 and λ_d = 16384 (the pyramid uses rows
+down to λ_d = `PyramidSettings.rows_lambda_min`, 500: on 256² maps the rows' levels are as
+close to brute force as the 2-D gather's or closer).
 
-Pass 1 (`row_pass1`) convolves each source row along itself: at sample points x_k of the row
-(the output grid's pitch) C0 = Σ E e^{P(ẑ)} and C1 = Σ E ẑ e^{P(ẑ)}, stored as cubic B-spline
-coefficients. Pass 2 (`row_pass2`) sums over the rows in reach of each output, with
+Pass 1 (`row_pass1`) convolves each line along itself: at sample points x_k of the line (the
+output grid's pitch) C0 = Σ E e^{P(ẑ)} and C1 = Σ E ẑ e^{P(ẑ)}, stored as cubic B-spline
+coefficients. Pass 2 (`row_pass2`) sums over the lines in reach of each output, with
 V = C0 + κ z_h C1 at the foot:
 
-    Γ(p) = Σ_rows e^{P(z_h)} V,    ∂Γ/∂λ = g0 Γ + g1 Σ_rows e^{P(z_h)} (z_h V + cos h · C1)
+    Γ(p) = Σ_lines e^{P(z_h)} V,    ∂Γ/∂λ = g0 Γ + g1 Σ_lines e^{P(z_h)} (z_h V + cos h · C1)
 
 for a derivative kernel K·(g0 + g1 z) (the SG: g0 = 0, g1 = −1/λ; a difference kernel's g2 z²,
 g3 z³ are dropped: the slope only steers the λ interpolation). The foot of p = (s0, t0, 1) on
-row t_i lies at s = a·s0, a = (1 + t_i²)/(1 + t0 t_i): off the sample grid, so C is
+the line t_i lies at s = a·s0, a = (1 + t_i²)/(1 + t0 t_i): off the sample grid, so C is
 interpolated there with its B-spline. Along an output row the feet of a block of consecutive
 outputs drift by (len − 1)|a − 1| < 1 sample against them, so one base index per block and
-five taps cover every lane and the loads stay contiguous (vectorised). Only the face's own rows
-are summed; the masses on the other faces are added by the 2-D gather (`_pyramid_jit.sg_gather`
-with `skip_own`).
+five taps cover every lane and the loads stay contiguous (vectorised).
+
+Seams: the rows of a face (t = const in its gnomonic plane) are the pencil of planes through its
+U axis; a neighbouring face across an edge parallel to U has a family of rows or columns in the
+same pencil, so its masses are lines of this face's frame too (at |t| > 1, or inside for a
+chained level's extended grid). Each face is summed in two frames, rows (U, V) with its own
+masses and the two neighbours across its t-edges, and columns (V, U) with the neighbours across
+its s-edges (written transposed): every mass of the sphere within reach, no 2-D fallback at the
+seams (`build_lines`).
 """
 from __future__ import annotations
 
@@ -42,10 +49,8 @@ from sgpipe.envmap._pyramid_jit import E0, _prefilter_rows, fast_exp32_short
 NARR = 6            # per row: C0 of 3 channels, C1 of 3 channels
 VLOOP = 16          # LLVM's vector loop here: 8 float32 lanes × 2 interleaved; a shorter trip
                     # count runs scalar (8 outputs: 30 ns per output and line, 512: 3.5 ns)
-_F0 = np.float32(0.0)
 _F1 = np.float32(1.0)
 _F2 = np.float32(2.0)
-_F23 = np.float32(2.0 / 3.0)
 _FH = np.float32(0.5)
 _F16 = np.float32(1.0 / 6.0)
 _F3 = np.float32(3.0)
