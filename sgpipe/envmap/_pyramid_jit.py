@@ -92,6 +92,23 @@ def moment_downsample(src):
     return out
 
 
+@njit(cache=True, parallel=True)
+def point_masses(dirs, energy, mask):
+    """Row blocks (6, N, NCOMP, N) float32 of the texels as point masses: centres `dirs`
+    (6, N, N, 3), energies (6, N, N, 3) where `mask`, else 0, zero spread."""
+    n = dirs.shape[1]
+    out = np.empty((6, n, NCOMP, n), np.float32)
+    for job in prange(6 * n):
+        f = job // n
+        i = job % n
+        for j in range(n):
+            for c in range(3):
+                out[f, i, CX + c, j] = dirs[f, i, j, c]
+                out[f, i, E0 + c, j] = energy[f, i, j, c] if mask[f, i, j] else 0.0
+            out[f, i, S2, j] = 0.0
+    return out
+
+
 @njit(cache=True)
 def row_extents(src):
     """Per (face, row): first and last column holding energy (−1, −2 when the row is empty)."""

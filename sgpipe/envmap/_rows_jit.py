@@ -414,26 +414,36 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
             ai = np.float32(a / h_o)
             bi = np.float32(-x0 / h_o)
             v0, v1, v2, w0, w1, w2 = C[ln, 0], C[ln, 1], C[ln, 2], C[ln, 3], C[ln, 4], C[ln, 5]
-            # blocks of outputs sharing a base index: their feet drift by (len − 1)|a − 1| < 1
-            # samples against them (5 taps, the foot's fraction takes one); long blocks, a
-            # multiple of VLOOP, run entirely in the vector loop; near the corners, where the
-            # lines fan out, shorter ones
-            blen_max = min(m, int(1.0 + 0.95 / max(abs(a - 1.0), 1e-9)))
-            if blen_max >= VLOOP:
-                blen_max -= blen_max % VLOOP
+            # blocks of outputs sharing a base index kb: lane jj's foot is o = 1 … 3 samples
+            # past tap kb + jj (5 taps: the fraction takes one) and drifts by a − 1 per lane;
+            # kb puts the first lane at 1 + frac (a ≥ 1) or 2 + frac (a < 1), so a block may
+            # drift by 2 − frac or 1 + frac, 1.5 on average. Long blocks, a multiple of VLOOP,
+            # run entirely in the vector loop; near the corners, where the lines fan out,
+            # shorter ones
+            delta = a - 1.0
+            ad = max(abs(delta), 1e-9)
             d2 = np.float64(d) * np.float64(d)
             jb = 0
             while jb < m:
-                blen = min(blen_max, m - jb)
+                ta = np.float64(ai * us[jb] + bi)
+                fl = math.floor(ta)
+                frac = ta - fl
+                if delta >= 0.0:
+                    kb = int(fl) - 1
+                    room = 1.99 - frac
+                else:
+                    kb = int(fl) - 2
+                    room = 0.99 + frac
+                blen = 1 + int(room / ad)
+                if blen >= VLOOP:
+                    blen -= blen % VLOOP
+                blen = min(blen, m - jb)
                 je = jb + blen - 1
                 # skip a block when even its outputs farthest from the face's centre column
                 # (largest r0, smallest angle to the row's plane) are out of reach
                 if d2 * min(ir0[jb], ir0[je]) ** 2 > sin_max * sin_max:
                     jb += blen
                     continue
-                ta = ai * us[jb] + bi
-                tb = ai * us[je] + bi - (blen - 1)
-                kb = int(math.floor(min(ta, tb))) - 1
                 kb = max(0, min(m1 - blen - 5, kb))
                 _block(v0, w0, v1, w1, v2, w2, a0, b0, a1, b1, a2, b2, us, ir0, kb, jb, blen, d, ai,
                        bi, lam32, zc, k1, k2, k3, k4, kap)

@@ -117,11 +117,7 @@ def pyramid_levels(n_finest: int, s: PyramidSettings) -> tuple[np.ndarray, np.nd
 def _point_masses(dirs: np.ndarray, energy: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """Finest source row blocks (6, N, NCOMP, N) float32: texel centres, energies L·Ω (masked),
     zero spread."""
-    n = dirs.shape[1]
-    src = np.zeros((6, n, _pj.NCOMP, n), np.float32)
-    src[:, :, _pj.CX:_pj.CZ + 1, :] = np.moveaxis(dirs, 3, 2)
-    src[:, :, _pj.E0:_pj.E2 + 1, :] = np.moveaxis(energy * mask[..., None], 3, 2)
-    return src
+    return _pj.point_masses(dirs, energy, mask)
 
 
 class _MomentMip:
