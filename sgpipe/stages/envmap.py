@@ -56,6 +56,7 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
         run.report["pyramid_bright_texels"] = pyr.info["bright_texels"]
         run.report["pyramid_points"] = pyr.info["points"]
         run.report["pyramid_chained_levels"] = pyr.info["chained_levels"]
+        run.report["pyramid_row_levels"] = pyr.info["row_levels"]
 
         t = time.perf_counter()
         cube_chain = mip.build_cube_chain(cube)
