@@ -108,7 +108,8 @@ def build_lines(src, uva, t_lim, min_ca):
     c·A > min_ca (the rest is out of any sharp kernel's reach). Returns (key_off (13,), order,
     t, m_off, m_ca, m_cb, m_s, m_e): lines of frame k at order[key_off[k]:key_off[k+1]] sorted
     by their frame coordinate t; masses of line ℓ at [m_off[ℓ], m_off[ℓ+1]) with row-local
-    coordinates (c·U, √(1+t²)·c·A), position s = c·U/c·A and energies m_e (3, ·)."""
+    coordinates (c·U, √(1+t²)·c·A), position s = c·U/c·A and energies m_e (3, ·); own[ℓ] =
+    f·M + i for face f's own row i (M = rows per face), −1 for a neighbour's line."""
     m = src.shape[1]
     cand = _candidates(uva, m)
     nc = cand.shape[0]
@@ -139,6 +140,11 @@ def build_lines(src, uva, t_lim, min_ca):
     # keep the lines with masses, grouped by frame (candidates come in key order)
     keep = np.nonzero(cnt > 0)[0]
     n_lines = keep.shape[0]
+    own = np.full(n_lines, -1, np.int64)
+    for ln in range(n_lines):
+        q = keep[ln]
+        if cand[q, 1] == cand[q, 0] // 2:
+            own[ln] = cand[q, 1] * m + cand[q, 3]
     t = np.empty(n_lines)
     m_off = np.zeros(n_lines + 1, np.int64)
     key_off = np.zeros(13, np.int64)
@@ -196,7 +202,7 @@ def build_lines(src, uva, t_lim, min_ca):
         o = np.argsort(t[a:b])
         for k in range(b - a):
             order[a + k] = a + o[k]
-    return key_off, order, t, m_off, m_ca, m_cb, m_s, m_e
+    return key_off, order, t, m_off, m_ca, m_cb, m_s, m_e, own
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
@@ -227,8 +233,32 @@ def _sample(ca, cb, e0, e1, e2, j0, nj, qa, qb, lamh, k1, k2, k3, k4, zc, acc, k
     acc[5, k] = t2
 
 
+@njit(cache=True, fastmath=True, error_model="numpy")
+def _diagonal(qa, qb, ca, cb, e0, e1, e2, a0, a1, a2, b0, b1, b2, k0, j0, n, lamh, k1, k2, k3,
+              k4, zc):
+    """Pass 1 of a row whose masses sit on the sample grid, one mass offset d at a time:
+    samples k0 … k0 + n − 1 against masses j0 … j0 + n − 1 (j = k − off + d): a_c += E_c e^{P(ẑ)},
+    b_c += E_c ẑ e^{P(ẑ)}. One long vector loop per offset instead of a call per sample."""
+    uk = np.uint64(k0)
+    uj = np.uint64(j0)
+    for i in range(n):
+        k = uk + np.uint64(i)
+        j = uj + np.uint64(i)
+        da = ca[j] - qa[k]
+        db = cb[j] - qb[k]
+        z = lamh * (da * da + db * db)
+        w = fast_exp32_short(z * (k1 + z * (k2 + z * (k3 + z * k4)))) * (z <= zc)
+        wz = w * z
+        a0[k] += e0[j] * w
+        a1[k] += e1[j] * w
+        a2[k] += e2[j] * w
+        b0[k] += e0[j] * wz
+        b1[k] += e1[j] * wz
+        b2[k] += e2[j] * wz
+
+
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
-def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1):
+def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1, src, own, c0_src, h_src):
     """C (L, NARR, m1) float32: per line (`build_lines`), B-spline coefficients of
     C0 = Σ_j E_j e^{P(ẑ)} and C1 = Σ_j E_j ẑ e^{P(ẑ)} (3 channels each) at the line's sample
     points s_k = x0 + k·h_o (h_o = 2/n_out) in its frame, ẑ = λ_d(1 − c_j·q_k) cut at
@@ -260,6 +290,41 @@ def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1):
             qa[k] = s * r
             qb[k] = r * sq
         acc = np.zeros((NARR, m1), np.float32)
+        off = (c0_src - x0) / h_o               # sample index of mass 0 on an own row
+        if own[ln] >= 0 and abs(h_src - h_o) < 1e-12 * h_o and abs(off - round(off)) < 1e-6:
+            f = own[ln] // src.shape[1]
+            i = own[ln] % src.shape[1]
+            n = src.shape[1]
+            io = int(round(off))
+            ca = np.empty(n, np.float32)
+            cb = np.empty(n, np.float32)
+            for j in range(n):
+                u = c0_src + j * h_src
+                r = 1.0 / math.sqrt(q + u * u)
+                ca[j] = u * r
+                cb[j] = r * sq
+            # the widest window along the row (at its ends): Δs = φ_max (1 + t² + s²)/√(1 + t²)
+            smax = max(abs(c0_src), abs(c0_src + (n - 1) * h_src))
+            wmax = int(math.ceil(math.atan(tau) * (q + smax * smax) / sq / h_o)) + 2
+            row = src[f, i]
+            for dd in range(-wmax, wmax + 1):
+                # masses j = k − io + dd, samples k in [0, m1), masses in [0, n)
+                ka = max(0, io - dd)
+                kz = min(m1, n + io - dd)
+                if kz <= ka:
+                    continue
+                _diagonal(qa, qb, ca, cb, row[E0], row[E0 + 1], row[E0 + 2], acc[0], acc[1],
+                          acc[2], acc[3], acc[4], acc[5], ka, ka - io + dd, kz - ka, lamh, k1, k2,
+                          k3, k4, zc)
+            buf = np.empty((m1, NARR))
+            for c in range(NARR):
+                for k in range(m1):
+                    buf[k, c] = acc[c, k]
+            _prefilter_rows(buf)
+            for c in range(NARR):
+                for k in range(m1):
+                    out[ln, c, k] = buf[k, c]
+            continue
         ma = m_off[ln]
         nm = m_off[ln + 1] - ma
         ca = m_ca[ma:ma + nm]

@@ -352,9 +352,10 @@ def _chain_source(acc: np.ndarray, n: int, ext: int, norm: float, step: int):
 T_LIM_MAX = 1.6
 
 
-def _row_gather(src, kern, n_out, ext, acc, lam_min, lines_cache=None, t_build=0.0) -> bool:
+def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
+                t_build=0.0) -> bool:
     """Add Γ, ∂Γ/∂λ of the zonal kernel `kern` (the gather's layout) over the masses `src` (row
-    blocks) to the bordered accumulator acc by the row-factorised passes (_rows_jit): each
+    blocks on the grid (h, c0): centres at c0 + i·h) to the bordered accumulator acc by the row-factorised passes (_rows_jit): each
     face's rows and columns as two pencils of great circles, with the neighbouring faces'
     masses on the lines of the same pencils. False (nothing added) for λ_d below `lam_min` or a
     kernel so broad that the lines in reach fan out beyond t = 1.6 (the cross term grows, the
@@ -377,7 +378,7 @@ def _row_gather(src, kern, n_out, ext, acc, lam_min, lines_cache=None, t_build=0
         lines = _rj.build_lines(src, FACE_UVA, t_b, 0.1)
         if lines_cache is not None:
             lines_cache[id(src)] = (t_b, lines)
-    key_off, order, t, m_off, m_ca, m_cb, m_s, m_e = lines
+    key_off, order, t, m_off, m_ca, m_cb, m_s, m_e, own = lines
     _, foot = _rj.lines_dev(key_off, order, t, lam_d, zcut, n_out, int(ext))
     h_o = 2.0 / n_out
     # samples beyond the bordered outputs at each end of a row: the feet's offset, the B-spline
@@ -387,7 +388,8 @@ def _row_gather(src, kern, n_out, ext, acc, lam_min, lines_cache=None, t_build=0
     x0 = -1.0 + (0.5 - ext - margin) * h_o
     kappa = 2.0 * kern[3] - kern[2] / lam_d
     k6 = np.ascontiguousarray(kern[:6], dtype=np.float64)
-    C = _rj.row_pass1(t, m_off, m_ca, m_cb, m_s, m_e, k6, n_out, x0, m1)
+    C = _rj.row_pass1(t, m_off, m_ca, m_cb, m_s, m_e, k6, n_out, x0, m1, src, own,
+                      float(grid[1]), float(grid[0]))
     _rj.row_pass2(C, key_off, order, t, k6, float(kappa), float(kern[6]), float(kern[7]),
                   n_out, int(ext), x0, acc)
     return True
@@ -462,7 +464,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                     # a bright layer of high contrast (a sun) stays with the 2-D gather: the rows'
                     # B-spline of the row sums is ~1e-3 off in the tails of a 10⁵ × sun
                     if (mip is dim or bright_rows) and _row_gather(
-                            src, kern, n, ext, acc, s.rows_lambda_min,
+                            src, grid, kern, n, ext, acc, s.rows_lambda_min,
                             map_lines if mip is dim else None, t_direct):
                         row_levels += 1
                     else:
@@ -472,7 +474,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
             a, step, (kern, amp, _) = plan[idx]
             src, ex, h_src, c0 = sources.pop((a, step))
             cos_cut = max(-2.0, 1.0 - kern[1] / kern[0])
-            if _row_gather(src, kern, n, ext, acc, s.rows_lambda_min):
+            if _row_gather(src, (h_src, c0), kern, n, ext, acc, s.rows_lambda_min):
                 row_levels += 1
             else:
                 _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,

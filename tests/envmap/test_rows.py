@@ -53,7 +53,7 @@ def _both(src, ex, h_src, c0, kern, ref_kern, n_out):
     _pj.sg_gather(src, ex, FACE_UVA, n_out, EXT, float(kern[0]),
                   1.0 - ref_kern[1] / ref_kern[0], 4, ref, ref_kern, h_src, c0)
     rows = np.zeros_like(ref)
-    used = _row_gather(src, kern, n_out, EXT, rows, 0.0)
+    used = _row_gather(src, (h_src, c0), kern, n_out, EXT, rows, 0.0)
     return used, ref, rows
 
 
@@ -108,6 +108,6 @@ def test_rows_refuse_a_broad_kernel(dim_masses):
     src, ex = dim_masses
     kern = sg_kernel(60.0, 4.5)
     rows = np.zeros((6, 16 + 2 * EXT, 16 + 2 * EXT, 6))
-    assert not _row_gather(src, kern, 16, EXT, rows, 0.0)
+    assert not _row_gather(src, _map_grid(N), kern, 16, EXT, rows, 0.0)
     assert not rows.any()
-    assert not _row_gather(src, sg_kernel(4096.0, 4.5), N, EXT, rows, 1e4)
+    assert not _row_gather(src, _map_grid(N), sg_kernel(4096.0, 4.5), N, EXT, rows, 1e4)
