@@ -233,6 +233,59 @@ def _sample(ca, cb, e0, e1, e2, j0, nj, qa, qb, lamh, k1, k2, k3, k4, zc, acc, k
     acc[5, k] = t2
 
 
+@njit(cache=True)
+def _row_local(x0, h, n, t):
+    """Row-local coordinates (s/r, √(1 + t²)/r), r = |(s, t, 1)|, of the points s = x0 + k·h of
+    the line t: |c − q|² of two points of a line is the squared distance of these pairs."""
+    sq = math.sqrt(1.0 + t * t)
+    a = np.empty(n, np.float32)
+    b = np.empty(n, np.float32)
+    for k in range(n):
+        s = x0 + k * h
+        r = 1.0 / math.sqrt(1.0 + t * t + s * s)
+        a[k] = s * r
+        b[k] = r * sq
+    return a, b
+
+
+@njit(cache=True)
+def _line_samples(acc, ma, mz, m_ca, m_cb, m_s, m_e, qa, qb, x0, h_o, sq, tau, lamh, k1, k2, k3,
+                  k4, zc):
+    """Pass 1 of any line, sample by sample: the masses ma … mz − 1 (sorted by s) within the
+    window |φ − φ_k| ≤ φ_max of each sample (`_sample`)."""
+    m1 = acc.shape[1]
+    nm = mz - ma
+    ca = m_ca[ma:mz]
+    cb = m_cb[ma:mz]
+    ms = m_s[ma:mz]
+    e0 = m_e[0, ma:mz]
+    e1 = m_e[1, ma:mz]
+    e2 = m_e[2, ma:mz]
+    jlo = 0
+    jhi = 0
+    for k in range(m1):
+        u = x0 + k * h_o
+        # the window [lo, hi] in s (tan φ = s/√(1 + t²)) moves right with k
+        den_lo = sq + u * tau
+        den_hi = sq - u * tau
+        lo = sq * (u - sq * tau) / den_lo if den_lo > 1e-9 else -1e9
+        hi = sq * (u + sq * tau) / den_hi if den_hi > 1e-9 else 1e9
+        while jlo < nm and ms[jlo] < lo:
+            jlo += 1
+        if jhi < jlo:
+            jhi = jlo
+        while jhi < nm and ms[jhi] <= hi:
+            jhi += 1
+        n_in = jhi - jlo
+        if n_in == 0:
+            continue
+        # a trip count that is a multiple of VLOOP runs entirely in the vector loop (the extra
+        # masses are beyond the cut, weight 0)
+        nj = min(nm, (n_in + VLOOP - 1) // VLOOP * VLOOP)
+        j0 = max(0, min(jlo, nm - nj))
+        _sample(ca, cb, e0, e1, e2, j0, nj, qa[k], qb[k], lamh, k1, k2, k3, k4, zc, acc, k)
+
+
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _diagonal(qa, qb, ca, cb, e0, e1, e2, a0, a1, a2, b0, b1, b2, k0, j0, n, lamh, k1, k2, k3,
               k4, zc):
@@ -280,15 +333,7 @@ def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1, src, own
         t = t_line[ln]
         q = 1.0 + t * t
         sq = math.sqrt(q)
-        # row-local coordinates of the samples: (s/r, √(1 + t²)/r) with r = |(s, t, 1)|, so that
-        # |c − q|² is the squared distance of these pairs
-        qa = np.empty(m1, np.float32)
-        qb = np.empty(m1, np.float32)
-        for k in range(m1):
-            s = x0 + k * h_o
-            r = 1.0 / math.sqrt(q + s * s)
-            qa[k] = s * r
-            qb[k] = r * sq
+        qa, qb = _row_local(x0, h_o, m1, t)
         acc = np.zeros((NARR, m1), np.float32)
         off = (c0_src - x0) / h_o               # sample index of mass 0 on an own row
         if own[ln] >= 0 and abs(h_src - h_o) < 1e-12 * h_o and abs(off - round(off)) < 1e-6:
@@ -296,13 +341,7 @@ def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1, src, own
             i = own[ln] % src.shape[1]
             n = src.shape[1]
             io = int(round(off))
-            ca = np.empty(n, np.float32)
-            cb = np.empty(n, np.float32)
-            for j in range(n):
-                u = c0_src + j * h_src
-                r = 1.0 / math.sqrt(q + u * u)
-                ca[j] = u * r
-                cb[j] = r * sq
+            ca, cb = _row_local(c0_src, h_src, n, t)
             # the widest window along the row (at its ends): Δs = φ_max (1 + t² + s²)/√(1 + t²)
             smax = max(abs(c0_src), abs(c0_src + (n - 1) * h_src))
             wmax = int(math.ceil(math.atan(tau) * (q + smax * smax) / sq / h_o)) + 2
@@ -316,47 +355,9 @@ def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1, src, own
                 _diagonal(qa, qb, ca, cb, row[E0], row[E0 + 1], row[E0 + 2], acc[0], acc[1],
                           acc[2], acc[3], acc[4], acc[5], ka, ka - io + dd, kz - ka, lamh, k1, k2,
                           k3, k4, zc)
-            buf = np.empty((m1, NARR))
-            for c in range(NARR):
-                for k in range(m1):
-                    buf[k, c] = acc[c, k]
-            _prefilter_rows(buf)
-            for c in range(NARR):
-                for k in range(m1):
-                    out[ln, c, k] = buf[k, c]
-            continue
-        ma = m_off[ln]
-        nm = m_off[ln + 1] - ma
-        ca = m_ca[ma:ma + nm]
-        cb = m_cb[ma:ma + nm]
-        ms = m_s[ma:ma + nm]
-        e0 = m_e[0, ma:ma + nm]
-        e1 = m_e[1, ma:ma + nm]
-        e2 = m_e[2, ma:ma + nm]
-        jlo = 0
-        jhi = 0
-        for k in range(m1):
-            u = x0 + k * h_o
-            # the masses within |φ − φ_k| ≤ φ_max along the row (tan φ = s/√(1 + t²)): the
-            # window [lo, hi] in s moves right with k
-            den_lo = sq + u * tau
-            den_hi = sq - u * tau
-            lo = sq * (u - sq * tau) / den_lo if den_lo > 1e-9 else -1e9
-            hi = sq * (u + sq * tau) / den_hi if den_hi > 1e-9 else 1e9
-            while jlo < nm and ms[jlo] < lo:
-                jlo += 1
-            if jhi < jlo:
-                jhi = jlo
-            while jhi < nm and ms[jhi] <= hi:
-                jhi += 1
-            n_in = jhi - jlo
-            if n_in == 0:
-                continue
-            # a trip count that is a multiple of VLOOP runs entirely in the vector loop (the
-            # extra masses are beyond the cut, weight 0)
-            nj = min(nm, (n_in + VLOOP - 1) // VLOOP * VLOOP)
-            j0 = max(0, min(jlo, nm - nj))
-            _sample(ca, cb, e0, e1, e2, j0, nj, qa[k], qb[k], lamh, k1, k2, k3, k4, zc, acc, k)
+        else:
+            _line_samples(acc, m_off[ln], m_off[ln + 1], m_ca, m_cb, m_s, m_e, qa, qb, x0, h_o,
+                          sq, tau, lamh, k1, k2, k3, k4, zc)
         buf = np.empty((m1, NARR))
         for c in range(NARR):
             for k in range(m1):
