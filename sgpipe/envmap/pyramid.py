@@ -92,9 +92,10 @@ class PyramidSettings:
                                          # (a sun) the 2-D gather (real sky_sun 512², 9.7·10⁴:
                                          # level 0 0.47 % off instead of 0.68 %)
     rows_lambda_min: float = 500.0       # kernels with λ_d >= this are summed row by row
-                                         # (_rows_jit: two passes of ~10–25 taps instead of
-                                         # ~100–800 per output; its cross term is 4e-4 … 2e-3
-                                         # of a tap at weight 1e-2 for λ_d 2048 … 1024)
+                                         # (_rows_jit: ~10–30 row taps per output instead of
+                                         # ~100–800 texels; on 256² maps its levels down to
+                                         # λ_d 362 are as close to brute force as the 2-D
+                                         # gather's or closer)
 
 
 def pyramid_levels(n_finest: int, s: PyramidSettings) -> tuple[np.ndarray, np.ndarray]:
@@ -349,17 +350,19 @@ def _chain_source(acc: np.ndarray, n: int, ext: int, norm: float, step: int):
     return src, _pj.row_extents(src), step * h, -1.0 + (0.5 - _CHAIN_PAD) * h
 
 
-T_LIM_MAX = 1.6
+T_LIM_MAX = 1.6     # rows only while the lines in reach stay within |t| ≤ this of a face's
+                    # plane (broader kernels: the lines fan out, the blocks get short and the
+                    # 2-D gather of the small level is as fast)
 
 
 def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
                 t_build=0.0) -> bool:
     """Add Γ, ∂Γ/∂λ of the zonal kernel `kern` (the gather's layout) over the masses `src` (row
-    blocks on the grid (h, c0): centres at c0 + i·h) to the bordered accumulator acc by the row-factorised passes (_rows_jit): each
-    face's rows and columns as two pencils of great circles, with the neighbouring faces'
-    masses on the lines of the same pencils. False (nothing added) for λ_d below `lam_min` or a
-    kernel so broad that the lines in reach fan out beyond t = 1.6 (the cross term grows, the
-    blocks get short)."""
+    blocks on the grid (h, c0): centres at c0 + i·h) to the bordered accumulator acc by the
+    row-factorised passes (_rows_jit): each face's rows and columns as two pencils of great
+    circles, with the neighbouring faces' masses on the lines of the same pencils. False
+    (nothing added) for λ_d below `lam_min` or beyond T_LIM_MAX. `lines_cache` (a dict) keeps
+    the lines of `src` for the next call with the same source (built out to t_build)."""
     lam_d, zcut = float(kern[0]), float(kern[1])
     if lam_d < lam_min:
         return False
@@ -368,16 +371,15 @@ def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
     if t_lim > T_LIM_MAX:   # the lines would fan out far beyond the faces
         return False
     # the lines of a source already built for a level reaching at least as far are reused
-    # (levels 0 and 1 share the map's, built out to t_build); extra lines are out of reach in
-    # pass 2
-    cached = lines_cache.get(id(src)) if lines_cache is not None else None
-    if cached is not None and cached[0] >= t_lim:
-        lines = cached[1]
+    # (levels 0 and 1 share the map's); extra lines are out of reach in pass 2
+    cached = lines_cache.get("lines") if lines_cache is not None else None
+    if cached is not None and cached[0] is src and cached[1] >= t_lim:
+        lines = cached[2]
     else:
         t_b = max(t_lim, t_build) if t_build <= T_LIM_MAX else t_lim
         lines = _rj.build_lines(src, FACE_UVA, t_b, 0.1)
         if lines_cache is not None:
-            lines_cache[id(src)] = (t_b, lines)
+            lines_cache["lines"] = (src, t_b, lines)
     key_off, order, t, m_off, m_ca, m_cb, m_s, m_e, own = lines
     _, foot = _rj.lines_dev(key_off, order, t, lam_d, zcut, n_out, int(ext))
     h_o = 2.0 / n_out
@@ -421,8 +423,8 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     # kept in the levels need the longer tail of their dynamic range (a 5·10⁴ disk sun at 4.5:
     # 1.6 % off near it, at 6: 0.5 %)
     t_chain = max(s.tail_chain, t_bright) if brt is not None else s.tail_chain
-    # the chain plan: level b ≥ 1 comes from a sharper level a while λ, a's sampling and the
-    # kernel fit allow. The quadrature of V_a·Δ on a's grid (pitch h at a face centre) is off by
+    # the chain plan: level b ≥ n_direct comes from a sharper level a while λ, a's sampling and
+    # the kernel fit allow. The quadrature of V_a·Δ on a's grid (pitch h at a face centre) is off by
     # ~e^{−2π²(σ_e/h)²}, σ_e² = (1 − λ_b/λ_a)/λ_a the integrand's width. Preferred: a = b − 2
     # (λ ratio 2) on every other texel of a (σ_e/h = 0.71 at 2 texels per σ: ~5e-5 per level,
     # 0.6× the taps of a = b − 1 on all its texels, σ_e/h = 1.08); ratio 1.1 would give 0.6
@@ -446,14 +448,15 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
             break
     values, slopes, samples = [], [], []
     row_levels = 0          # levels whose sharp kernel was summed row by row
-    map_lines = {}          # the map's lines for the direct levels (built for the broadest)
-    t_direct = max(_rj.reach_t(float(lams[i]), 0.5 * s.tail_dim ** 2, int(res[i]), BORDER + _EXTRA)
-                   for i in range(n_direct))
     ext = BORDER + _EXTRA
+    map_lines = {}          # the map's lines for the direct levels (built for the broadest)
+    t_direct = max(_rj.reach_t(float(lams[i]), 0.5 * s.tail_dim ** 2, int(res[i]), ext)
+                   for i in range(n_direct))
     sources = {}            # (a, step) -> level a as quadrature masses (`_chain_source`)
     for idx, (lam, n) in enumerate(zip(lams, res)):
         sigma = 1.0 / math.sqrt(lam)
         acc = np.zeros((6, n + 2 * ext, n + 2 * ext, 6), np.float32)
+        by_rows = False
         if idx < n_direct:  # the sharpest levels: straight from the map's texels
             for mip, tail in ((dim, s.tail_dim), (brt, t_bright)):
                 if mip is not None:
@@ -461,12 +464,12 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                     kern = sg_kernel(float(lam), tail)
                     cos_cut = max(-2.0, 1.0 - tail * tail / (2.0 * lam))
                     grid = _map_grid(src.shape[1])
-                    # a bright layer of high contrast (a sun) stays with the 2-D gather: the rows'
-                    # B-spline of the row sums is ~1e-3 off in the tails of a 10⁵ × sun
+                    # a bright layer of high contrast (a sun) stays with the 2-D gather: the
+                    # rows' B-spline of the row sums is ~1e-3 off in the tails of a 10⁵ × sun
                     if (mip is dim or bright_rows) and _row_gather(
                             src, grid, kern, n, ext, acc, s.rows_lambda_min,
                             map_lines if mip is dim else None, t_direct):
-                        row_levels += 1
+                        by_rows = True
                     else:
                         _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut,
                                       s.tile, acc, kern, *grid)
@@ -474,9 +477,8 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
             a, step, (kern, amp, _) = plan[idx]
             src, ex, h_src, c0 = sources.pop((a, step))
             cos_cut = max(-2.0, 1.0 - kern[1] / kern[0])
-            if _row_gather(src, (h_src, c0), kern, n, ext, acc, s.rows_lambda_min):
-                row_levels += 1
-            else:
+            by_rows = _row_gather(src, (h_src, c0), kern, n, ext, acc, s.rows_lambda_min)
+            if not by_rows:
                 _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,
                               kern, h_src, c0)
             acc *= amp
@@ -493,6 +495,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         vals = np.empty((6 * w, w, 3), np.float32)
         slps = np.empty((6 * w, w, 3), np.float32)
         smp = np.empty((6 * (n + 2), n + 2, 3), np.float32)
+        row_levels += by_rows
         _pj.finish_level(acc, float(lam), float(sg_norm(lam)), _EXTRA, vals, slps, smp)
         values.append(vals)
         slopes.append(slps)
