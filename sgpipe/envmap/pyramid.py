@@ -496,6 +496,8 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         slps = np.empty((6 * w, w, 3), np.float32)
         smp = np.empty((6 * (n + 2), n + 2, 3), np.float32)
         row_levels += by_rows
+        if idx == n_direct - 1:
+            map_lines.clear()           # (memory: the chained levels have their own sources)
         _pj.finish_level(acc, float(lam), float(sg_norm(lam)), _EXTRA, vals, slps, smp)
         values.append(vals)
         slopes.append(slps)
