@@ -44,7 +44,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from sgpipe.envmap._pyramid_jit import E0, _prefilter_rows, fast_exp32_short
+from sgpipe.envmap._pyramid_jit import CX, E0, _prefilter_rows, fast_exp32_short
 
 NARR = 6            # per row: C0 of 3 channels, C1 of 3 channels
 VLOOP = 16          # LLVM's vector loop here: 8 float32 lanes × 2 interleaved; a shorter trip
@@ -123,9 +123,10 @@ def build_lines(src, uva, t_lim, min_ca):
         for j in range(m):
             a_ = i if fam == 0 else j
             b_ = j if fam == 0 else i
-            if src[g, a_, 3, b_] == 0.0 and src[g, a_, 4, b_] == 0.0 and src[g, a_, 5, b_] == 0.0:
+            if (src[g, a_, E0, b_] == 0.0 and src[g, a_, E0 + 1, b_] == 0.0
+                    and src[g, a_, E0 + 2, b_] == 0.0):
                 continue
-            cx, cy, cz = src[g, a_, 0, b_], src[g, a_, 1, b_], src[g, a_, 2, b_]
+            cx, cy, cz = src[g, a_, CX, b_], src[g, a_, CX + 1, b_], src[g, a_, CX + 2, b_]
             ca_ = cx * A[0] + cy * A[1] + cz * A[2]
             if ca_ <= min_ca:
                 continue
@@ -169,10 +170,10 @@ def build_lines(src, uva, t_lim, min_ca):
         for j in range(m):
             a_ = i if fam == 0 else j
             b_ = j if fam == 0 else i
-            e0, e1, e2 = src[g, a_, 3, b_], src[g, a_, 4, b_], src[g, a_, 5, b_]
+            e0, e1, e2 = src[g, a_, E0, b_], src[g, a_, E0 + 1, b_], src[g, a_, E0 + 2, b_]
             if e0 == 0.0 and e1 == 0.0 and e2 == 0.0:
                 continue
-            cx, cy, cz = src[g, a_, 0, b_], src[g, a_, 1, b_], src[g, a_, 2, b_]
+            cx, cy, cz = src[g, a_, CX, b_], src[g, a_, CX + 1, b_], src[g, a_, CX + 2, b_]
             ca_ = cx * A[0] + cy * A[1] + cz * A[2]
             if ca_ <= min_ca:
                 continue
