@@ -18,24 +18,7 @@ from sgpipe.envmap._cube_jit import face_dir
 # component slots of a source row block
 CX, CY, CZ, E0, E1, E2, S2 = range(7)
 NCOMP = 7
-_CORNER_COS = 0.5773502691896258   # cos 54.7356°: widest angle between a face point and its axis
 _EXP_MIN = -60.0
-
-
-@njit(cache=True, fastmath=True, inline="always")
-def fast_exp(x):
-    """e^x for x in [−60, 0] (clamped): degree-10 Taylor of e^{x/64}, squared six times.
-    Relative error < 2e-6; branch-free so the gather loop vectorises."""
-    x = min(max(x, _EXP_MIN), 0.0) * 0.015625
-    y = 1.0 + x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (
-        1.0 / 120.0 + x * (1.0 / 720.0 + x * (1.0 / 5040.0 + x * (
-            1.0 / 40320.0 + x * (1.0 / 362880.0 + x * (1.0 / 3628800.0))))))))))
-    y = y * y
-    y = y * y
-    y = y * y
-    y = y * y
-    y = y * y
-    return y * y
 
 
 @njit(cache=True, parallel=True)
@@ -240,7 +223,9 @@ _FC = tuple(np.float32(1.0 / math.factorial(k)) for k in range(11))
 
 @njit(cache=True, fastmath=True, inline="always")
 def fast_exp32(x):
-    """float32 twin of `fast_exp` (8 lanes per AVX2 register)."""
+    """e^x for x in [−60, 0] (clamped), float32 (8 lanes per AVX2 register): degree-10 Taylor
+    of e^{x/64}, squared six times. Relative error < 2e-6 plus float32 rounding; branch-free
+    so the gather loop vectorises."""
     x = min(max(x, _FMIN), _F0) * _F64TH
     y = _FC[0] + x * (_FC[1] + x * (_FC[2] + x * (_FC[3] + x * (_FC[4] + x * (
         _FC[5] + x * (_FC[6] + x * (_FC[7] + x * (_FC[8] + x * (_FC[9] + x * _FC[10])))))))))
