@@ -445,7 +445,7 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
     m = n_out + 2 * ext
     lam = kern[0]
     zcut = kern[1]
-    sin_max = min(1.0, math.sqrt(max(0.0, 1.0 - (1.0 - zcut / lam) ** 2)))
+    sin_max = _sin_hmax(lam, zcut)
     lam32 = np.float32(lam)
     zc = np.float32(zcut)
     k1 = np.float32(kern[2])
@@ -453,6 +453,7 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
     k3 = np.float32(kern[4])
     k4 = np.float32(kern[5])
     kap = np.float32(kappa)
+    bi = np.float32(-x0 / h_o)      # foot position → sample index: ai·s + bi
     for job in prange(12 * m):
         key = job // m
         f = key // 2
@@ -479,7 +480,6 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
             a = (1.0 + ti * ti) / (1.0 + t0 * ti)
             d = np.float32((t0 - ti) / math.sqrt(1.0 + ti * ti))
             ai = np.float32(a / h_o)
-            bi = np.float32(-x0 / h_o)
             v0, v1, v2, w0, w1, w2 = C[ln, 0], C[ln, 1], C[ln, 2], C[ln, 3], C[ln, 4], C[ln, 5]
             # blocks of outputs sharing a base index kb: lane jj's foot is o = 1 … 3 samples
             # past tap kb + jj (5 taps: the fraction takes one) and drifts by a − 1 per lane;
@@ -529,6 +529,12 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
 
 
 @njit(cache=True)
+def _sin_hmax(lam_d, zcut):
+    """sin h of the farthest line in reach: z_h = λ_d(1 − cos h) ≤ zcut."""
+    return min(1.0, math.sqrt(max(0.0, 1.0 - (1.0 - zcut / lam_d) ** 2)))
+
+
+@njit(cache=True)
 def _lines_in_reach(t_line, order, a, b, t0, r0max, sin_max):
     """Positions [p0, p1] in order[a:b] (sorted by t) of the lines with
     |t0 − t_i| ≤ sin h_max · r0 · √(1 + t_i²) for some output of the output row t0."""
@@ -558,12 +564,12 @@ def _lines_in_reach(t_line, order, a, b, t0, r0max, sin_max):
 
 
 @njit(cache=True)
-def lines_dev(key_off, order, t_line, lam_d, zcut, n_out, ext):
-    """(largest |a − 1| over the (output row, line) pairs pass 2 visits, largest foot offset
-    |a·s − s| over their outputs, in face coordinates): the block length and pass-1 margin."""
+def lines_foot(key_off, order, t_line, lam_d, zcut, n_out, ext):
+    """Largest offset |a·s − s| of an output's foot from the output (face coordinates) over the
+    (output row, line) pairs pass 2 visits: the pass-1 samples needed beyond the outputs."""
     h_o = 2.0 / n_out
     m = n_out + 2 * ext
-    sin_max = min(1.0, math.sqrt(max(0.0, 1.0 - (1.0 - zcut / lam_d) ** 2)))
+    sin_max = _sin_hmax(lam_d, zcut)
     smax = 1.0 + (ext + 0.5) * h_o
     dev = 0.0
     for key in range(12):
@@ -575,13 +581,13 @@ def lines_dev(key_off, order, t_line, lam_d, zcut, n_out, ext):
             for pos in range(p0, p1 + 1):
                 ti = t_line[order[pos]]
                 dev = max(dev, abs((1.0 + ti * ti) / (1.0 + t0 * ti) - 1.0))
-    return dev, dev * smax
+    return dev * smax
 
 
 def reach_t(lam_d: float, zcut: float, n_out: int, ext: int) -> float:
     """Largest |t| of a line any bordered output can reach (for `build_lines`)."""
     h_o = 2.0 / n_out
-    sin_max = min(1.0, math.sqrt(max(0.0, 1.0 - (1.0 - zcut / lam_d) ** 2)))
+    sin_max = _sin_hmax(lam_d, zcut)
     e = 1.0 + (ext + 0.5) * h_o
     r0 = math.sqrt(1.0 + 2.0 * e * e)
     t = e

@@ -381,7 +381,7 @@ def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
         if lines_cache is not None:
             lines_cache["lines"] = (src, t_b, lines)
     key_off, order, t, m_off, m_ca, m_cb, m_s, m_e, own = lines
-    _, foot = _rj.lines_dev(key_off, order, t, lam_d, zcut, n_out, int(ext))
+    foot = _rj.lines_foot(key_off, order, t, lam_d, zcut, n_out, int(ext))
     h_o = 2.0 / n_out
     # samples beyond the bordered outputs at each end of a row: the feet's offset, the B-spline
     # taps and a run-in for the prefilter's mirror boundary (0.268¹⁰ ≈ 2e-6)
@@ -416,9 +416,10 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         point_dirs, point_energy = dirs[bright].copy(), energy[bright].copy()
     brt = _MomentMip(_point_masses(dirs, energy, bright)) if n_bright and not as_points else None
     del dirs
-    bright_rows = float(lum.max()) <= s.bright_rows_max_contrast * med
+    contrast = float(lum.max()) / med
+    bright_rows = contrast <= s.bright_rows_max_contrast
     t_bright = s.tail_bright or float(np.clip(
-        math.sqrt(2.0 * math.log(max(float(lum.max()) / med, 1.0) * 1e3)), 4.5, 7.0))
+        math.sqrt(2.0 * math.log(max(contrast, 1.0) * 1e3)), 4.5, 7.0))
     # a chained level cuts its kernel at t_chain of the difference kernel's σ: bright texels
     # kept in the levels need the longer tail of their dynamic range (a 5·10⁴ disk sun at 4.5:
     # 1.6 % off near it, at 6: 0.5 %)
