@@ -44,7 +44,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from sgpipe.envmap._pyramid_jit import CX, E0, _prefilter_rows, fast_exp32_short
+from sgpipe.envmap._pyramid_jit import CX, E0, _prefilter_rows, exp32_scaled
 
 NARR = 6            # per row: C0 of 3 channels, C1 of 3 channels
 VLOOP = 16          # LLVM's vector loop here: 8 float32 lanes × 2 interleaved; a shorter trip
@@ -59,6 +59,13 @@ _F8TH = np.float32(0.125)
 _F16TH = np.float32(0.0625)
 _F5_128 = np.float32(5.0 / 128.0)
 _F4 = np.float32(4.0)
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def _exponent(z, c1, c2, c3, c4):
+    """z(c1 + c2 z + c3 z² + c4 z³) in Estrin's form: the inner loops here are bound by one
+    lane's dependency chain (exponent → exp → accumulation), not by their operation count."""
+    return z * ((c1 + z * c2) + (z * z) * (c3 + z * c4))
 
 
 @njit(cache=True)
@@ -209,8 +216,9 @@ def build_lines(src, uva, t_lim, min_ca):
 @njit(cache=True, fastmath=True, error_model="numpy")
 def _sample(ca, cb, e0, e1, e2, j0, nj, qa, qb, lamh, k1, k2, k3, k4, zc, acc, k):
     """Pass 1 at one sample (row-local qa, qb) over masses j0 … j0 + nj − 1: acc[0:3, k] =
-    Σ E e^{P(ẑ)}, acc[3:6, k] = Σ E ẑ e^{P(ẑ)}. A reduction with no stores in the loop (so no
-    run-time alias checks) over 1-D rows with unsigned indices (no wraparound code): vectorised."""
+    Σ E e^{P(ẑ)}, acc[3:6, k] = Σ E ẑ e^{P(ẑ)} (k1 … k4: P's coefficients over 32, see
+    `_exponent`). A reduction with no stores in the loop (so no run-time alias checks) over 1-D
+    rows with unsigned indices (no wraparound code): vectorised."""
     s0 = s1 = s2 = t0 = t1 = t2 = np.float32(0.0)
     uj0 = np.uint64(j0)
     for jj in range(nj):
@@ -218,7 +226,7 @@ def _sample(ca, cb, e0, e1, e2, j0, nj, qa, qb, lamh, k1, k2, k3, k4, zc, acc, k
         da = ca[j] - qa
         db = cb[j] - qb
         z = lamh * (da * da + db * db)
-        w = fast_exp32_short(z * (k1 + z * (k2 + z * (k3 + z * k4)))) * (z <= zc)
+        w = exp32_scaled(_exponent(z, k1, k2, k3, k4)) * (z <= zc)
         wz = w * z
         s0 += e0[j] * w
         s1 += e1[j] * w
@@ -301,7 +309,7 @@ def _diagonal(qa, qb, ca, cb, e0, e1, e2, a0, a1, a2, b0, b1, b2, k0, j0, n, lam
         da = ca[j] - qa[k]
         db = cb[j] - qb[k]
         z = lamh * (da * da + db * db)
-        w = fast_exp32_short(z * (k1 + z * (k2 + z * (k3 + z * k4)))) * (z <= zc)
+        w = exp32_scaled(_exponent(z, k1, k2, k3, k4)) * (z <= zc)
         wz = w * z
         a0[k] += e0[j] * w
         a1[k] += e1[j] * w
@@ -321,10 +329,11 @@ def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1, src, own
     h_o = 2.0 / n_out
     lam = kern[0]
     zcut = kern[1]
-    k1 = np.float32(kern[2])
-    k2 = np.float32(kern[3])
-    k3 = np.float32(kern[4])
-    k4 = np.float32(kern[5])
+    # P's coefficients over 32: the exponent goes to `exp32_scaled` as is
+    k1 = np.float32(kern[2] / 32.0)
+    k2 = np.float32(kern[3] / 32.0)
+    k3 = np.float32(kern[4] / 32.0)
+    k4 = np.float32(kern[5] / 32.0)
     cmax = max(-1.0, 1.0 - zcut / lam)
     tau = math.sqrt(max(0.0, 1.0 - cmax * cmax)) / cmax if cmax > 0.0 else 1e3
     out = np.empty((n_lines, NARR, m1), np.float32)
@@ -347,15 +356,36 @@ def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1, src, own
             smax = max(abs(c0_src), abs(c0_src + (n - 1) * h_src))
             wmax = int(math.ceil(math.atan(tau) * (q + smax * smax) / sq / h_o)) + 2
             row = src[f, i]
+            phi = math.atan(tau)
             for dd in range(-wmax, wmax + 1):
                 # masses j = k − io + dd, samples k in [0, m1), masses in [0, n)
                 ka = max(0, io - dd)
                 kz = min(m1, n + io - dd)
                 if kz <= ka:
                     continue
-                _diagonal(qa, qb, ca, cb, row[E0], row[E0 + 1], row[E0 + 2], acc[0], acc[1],
-                          acc[2], acc[3], acc[4], acc[5], ka, ka - io + dd, kz - ka, lamh, k1, k2,
-                          k3, k4, zc)
+                # in reach where the angle of the offset, ≈ |dd|·h·√q/(q + s̄²) at the pair's
+                # midpoint s̄, is at most φ_max: everywhere for the near offsets, towards the
+                # row's ends only for the far ones (one sample's margin; lanes beyond are
+                # weight 0 anyway)
+                s2 = (abs(dd) - 1) * h_src * sq / phi - q
+                if s2 <= 0.0:
+                    _diagonal(qa, qb, ca, cb, row[E0], row[E0 + 1], row[E0 + 2], acc[0], acc[1],
+                              acc[2], acc[3], acc[4], acc[5], ka, ka - io + dd, kz - ka, lamh,
+                              k1, k2, k3, k4, zc)
+                    continue
+                smin = math.sqrt(s2)
+                mid = x0 + 0.5 * dd * h_src         # s̄ of sample k: mid + k·h_o
+                # [ka, kl): s̄ ≤ −smin; [kr, kz): s̄ ≥ smin
+                kl = max(ka, min(kz, int(math.floor((-smin - mid) / h_o)) + 2))
+                kr = max(kl, min(kz, int(math.ceil((smin - mid) / h_o)) - 1))
+                if kl > ka:
+                    _diagonal(qa, qb, ca, cb, row[E0], row[E0 + 1], row[E0 + 2], acc[0], acc[1],
+                              acc[2], acc[3], acc[4], acc[5], ka, ka - io + dd, kl - ka, lamh,
+                              k1, k2, k3, k4, zc)
+                if kz > kr:
+                    _diagonal(qa, qb, ca, cb, row[E0], row[E0 + 1], row[E0 + 2], acc[0], acc[1],
+                              acc[2], acc[3], acc[4], acc[5], kr, kr - io + dd, kz - kr, lamh,
+                              k1, k2, k3, k4, zc)
         else:
             _line_samples(acc, m_off[ln], m_off[ln + 1], m_ca, m_cb, m_s, m_e, qa, qb, x0, h_o,
                           sq, tau, lamh, k1, k2, k3, k4, zc)
@@ -371,32 +401,35 @@ def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1, src, own
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
-def _block(p0, q0, p1, q1, p2, q2, a0, b0_, a1, b1_, a2, b2_, us, ir0, kb, jb, blen, d, ai, bi,
-           lam32, zc, pk1, pk2, pk3, pk4, kap):
+def _block(p0, q0, p1, q1, p2, q2, a0, b0_, a1, b1_, a2, b2_, jf, ir2, kb, jb, blen, d2, dl, c0,
+           lam32, zc, e1, e2, e3, e4, kap):
     """Pass 2 for `blen` outputs from jb of one output row and one source row (base index kb):
     per channel c, with the row's pass-1 coefficients (p_c, q_c) = (C0, C1) at the feet and
-    V = C0 + κ z_h C1, a_c += e^{P(z_h)} V and b_c += e^{P(z_h)} (z_h V + cos h·C1).
+    V = C0 + κ z_h C1, a_c += e^{P(z_h)} V and b_c += e^{P(z_h)} (z_h V + cos h·C1);
+    P(z_h)/32 = x(e1 + e2 x + e3 x² + e4 x³), x = sin²h = d2·ir2[j] (`exponent_poly`).
     1-D rows as arguments and unsigned indices: with 2-D indexing (run-time strides, numba's
     negative-index wraparound) the loop stays scalar."""
     ub = np.uint64(kb)
     uj = np.uint64(jb)
-    kbf = np.float32(kb)
+    jbf = np.float32(jb)
     for jj in range(blen):
         j = uj + np.uint64(jj)
         k = ub + np.uint64(jj)
         # (written out here: behind an inlined helper returning a tuple the loop stays scalar)
-        sh = d * ir0[j]
-        x = sh * sh
+        x = d2 * ir2[j]
         # ε = 1 − cos h = x/(1 + √(1 − x)) = x(½ + x(⅛ + x(1/16 + 5x/128))), x = sin²h ≤ T²/λ_d:
-        # float32 without cancellation, square root or division
+        # float32 without cancellation, square root or division (z_h and cos h are off the
+        # weight's chain: the exponent is a polynomial in x of its own)
         eps = x * (_FH + x * (_F8TH + x * (_F16TH + x * _F5_128)))
         zh = lam32 * eps
         ch = _F1 - eps
-        w = fast_exp32_short(zh * (pk1 + zh * (pk2 + zh * (pk3 + zh * pk4)))) * (zh <= zc)
+        w = exp32_scaled(_exponent(x, e1, e2, e3, e4)) * (zh <= zc)
         kz = kap * zh
         # the foot is 1 … 3 samples past tap kb + jj: the four cubic B-spline weights of its
         # fraction, shifted by one tap when it is past 2
-        oj = ai * us[j] + bi - kbf - np.float32(jj)
+        # (from the float array jf[j] = j: converting the integer lane index to float costs
+        # ~40 instructions per 8 lanes without AVX-512)
+        oj = dl * (jf[j] - jbf) + c0
         sft = np.float32(oj >= _F2)
         t = oj - _F1 - sft
         t2 = t * t
@@ -434,12 +467,12 @@ def _block(p0, q0, p1, q1, p2, q2, a0, b0_, a1, b1_, a2, b2_, us, ir0, kb, jb, b
 
 
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
-def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, out):
+def row_pass2(C, key_off, order, t_line, kern, ecoef, kappa, g0, g1, n_out, ext, x0, out):
     """out[f, o, j, 0:3] += Γ, out[..., 3:6] += ∂Γ/∂λ at the bordered output texel centres
     (s_j, t_o) = −1 + (j − ext + ½)·2/n_out of a (6, n_out + 2·ext, …) cubemap, from the pass-1
-    coefficients C of the lines (`build_lines`) for the kernel kern = (λ_d, zcut, k1 … k4), its
-    cross term κ and derivative g0 + g1 z (module docstring); frame r = 1 (columns) writes
-    transposed."""
+    coefficients C of the lines (`build_lines`) for the kernel kern = (λ_d, zcut, k1 … k4) (its
+    exponent as `exponent_poly(kern)`), its cross term κ and derivative g0 + g1 z (module
+    docstring); frame r = 1 (columns) writes transposed."""
     m1 = C.shape[2]
     h_o = 2.0 / n_out
     m = n_out + 2 * ext
@@ -448,12 +481,12 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
     sin_max = _sin_hmax(lam, zcut)
     lam32 = np.float32(lam)
     zc = np.float32(zcut)
-    k1 = np.float32(kern[2])
-    k2 = np.float32(kern[3])
-    k3 = np.float32(kern[4])
-    k4 = np.float32(kern[5])
+    e1 = np.float32(ecoef[0])
+    e2 = np.float32(ecoef[1])
+    e3 = np.float32(ecoef[2])
+    e4 = np.float32(ecoef[3])
     kap = np.float32(kappa)
-    bi = np.float32(-x0 / h_o)      # foot position → sample index: ai·s + bi
+    bi = -x0 / h_o                  # foot position → sample index: ai·s + bi
     for job in prange(12 * m):
         key = job // m
         f = key // 2
@@ -465,12 +498,12 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
                                  sin_max)
         if p0 > p1:
             continue
-        us = np.empty(m, np.float32)
-        ir0 = np.empty(m, np.float32)
+        jf = np.empty(m, np.float32)
+        ir2 = np.empty(m, np.float32)
         for j in range(m):
             u = -1.0 + (j - ext + 0.5) * h_o
-            us[j] = u
-            ir0[j] = 1.0 / math.sqrt(1.0 + u * u + t0 * t0)
+            jf[j] = j
+            ir2[j] = 1.0 / (1.0 + u * u + t0 * t0)
         acc = np.zeros((NARR, m), np.float32)
         # 1-D row views made once (each view creation is an atomic reference count)
         a0, a1, a2, b0, b1, b2 = acc[0], acc[1], acc[2], acc[3], acc[4], acc[5]
@@ -478,8 +511,9 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
             ln = order[pos]
             ti = t_line[ln]
             a = (1.0 + ti * ti) / (1.0 + t0 * ti)
-            d = np.float32((t0 - ti) / math.sqrt(1.0 + ti * ti))
-            ai = np.float32(a / h_o)
+            d2 = (t0 - ti) * (t0 - ti) / (1.0 + ti * ti)     # sin²h = d2 / r0²
+            ai = a / h_o
+            dl = np.float32(a - 1.0)
             v0, v1, v2, w0, w1, w2 = C[ln, 0], C[ln, 1], C[ln, 2], C[ln, 3], C[ln, 4], C[ln, 5]
             # blocks of outputs sharing a base index kb: lane jj's foot is o = 1 … 3 samples
             # past tap kb + jj (5 taps: the fraction takes one) and drifts by a − 1 per lane;
@@ -489,10 +523,9 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
             # shorter ones
             delta = a - 1.0
             ad = max(abs(delta), 1e-9)
-            d2 = np.float64(d) * np.float64(d)
             jb = 0
             while jb < m:
-                ta = np.float64(ai * us[jb] + bi)
+                ta = ai * (-1.0 + (jb - ext + 0.5) * h_o) + bi
                 fl = math.floor(ta)
                 frac = ta - fl
                 if delta >= 0.0:
@@ -508,12 +541,12 @@ def row_pass2(C, key_off, order, t_line, kern, kappa, g0, g1, n_out, ext, x0, ou
                 je = jb + blen - 1
                 # skip a block when even its outputs farthest from the face's centre column
                 # (largest r0, smallest angle to the row's plane) are out of reach
-                if d2 * min(ir0[jb], ir0[je]) ** 2 > sin_max * sin_max:
+                if d2 * min(ir2[jb], ir2[je]) > sin_max * sin_max:
                     jb += blen
                     continue
                 kb = max(0, min(m1 - blen - 5, kb))
-                _block(v0, w0, v1, w1, v2, w2, a0, b0, a1, b1, a2, b2, us, ir0, kb, jb, blen, d, ai,
-                       bi, lam32, zc, k1, k2, k3, k4, kap)
+                _block(v0, w0, v1, w1, v2, w2, a0, b0, a1, b1, a2, b2, jf, ir2, kb, jb, blen,
+                       np.float32(d2), dl, np.float32(ta - kb), lam32, zc, e1, e2, e3, e4, kap)
                 jb += blen
         for j in range(m):
             for c in range(3):
@@ -582,6 +615,24 @@ def lines_foot(key_off, order, t_line, lam_d, zcut, n_out, ext):
                 ti = t_line[order[pos]]
                 dev = max(dev, abs((1.0 + ti * ti) / (1.0 + t0 * ti) - 1.0))
     return dev * smax
+
+
+def exponent_poly(kern) -> np.ndarray:
+    """(e1, e2, e3, e4) with P(z_h)/32 ≈ x(e1 + e2 x + e3 x² + e4 x³), x = sin²h, z_h =
+    λ_d(1 − cos h), over x in [0, sin²h_max] (pass 2's line weight in one polynomial instead of
+    ε(x), then P(z_h): half the dependency chain). Least squares on Chebyshev nodes; within
+    1e-8 of the exact exponent for the SG and the pyramid's difference kernels (the series
+    ε(x) to x⁴ it replaces: up to 1.5e-6 at λ_d = 500)."""
+    lam, zcut = float(kern[0]), float(kern[1])
+    xm = _sin_hmax(lam, zcut) ** 2
+    x = 0.5 * xm * (1.0 - np.cos(np.pi * (np.arange(64) + 0.5) / 64))
+    eps = x / (1.0 + np.sqrt(1.0 - x))
+    z = lam * eps
+    p = z * (kern[2] + z * (kern[3] + z * (kern[4] + z * kern[5])))
+    y = x / xm                                              # well-conditioned basis
+    c, *_ = np.linalg.lstsq(np.stack([y ** n for n in range(1, 5)], axis=1), p / 32.0,
+                            rcond=None)
+    return np.ascontiguousarray(c / xm ** np.arange(1, 5))
 
 
 def reach_t(lam_d: float, zcut: float, n_out: int, ext: int) -> float:

@@ -392,8 +392,8 @@ def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
     k6 = np.ascontiguousarray(kern[:6], dtype=np.float64)
     C = _rj.row_pass1(t, m_off, m_ca, m_cb, m_s, m_e, k6, n_out, x0, m1, src, own,
                       float(grid[1]), float(grid[0]))
-    _rj.row_pass2(C, key_off, order, t, k6, float(kappa), float(kern[6]), float(kern[7]),
-                  n_out, int(ext), x0, acc)
+    _rj.row_pass2(C, key_off, order, t, k6, _rj.exponent_poly(kern), float(kappa),
+                  float(kern[6]), float(kern[7]), n_out, int(ext), x0, acc)
     return True
 
 

@@ -135,3 +135,44 @@ def test_row_summed_pyramid_matches_brute_force(which, tol):
     for lam in (4096.0, 2300.0, 1000.0):
         err = np.abs(pyr.lookup(q, lam) / brute_gamma(cube, q, lam) - 1.0).max()
         assert err < tol, f"λ {lam}: {err:.2e}"
+
+
+def test_fast_exp_accuracy():
+    """The branch-free float32 exponentials of the gathers (Estrin's form) against libm."""
+    from numba import njit
+    from sgpipe.envmap._pyramid_jit import fast_exp32, fast_exp32_short
+
+    @njit
+    def both(x):
+        a = np.empty_like(x)
+        b = np.empty_like(x)
+        for i in range(x.size):
+            a[i] = fast_exp32(x[i])
+            b[i] = fast_exp32_short(x[i])
+        return a, b
+
+    x = -np.linspace(0.0, 32.0, 100001).astype(np.float32)
+    a, b = both(x)
+    ref = np.exp(x.astype(np.float64))
+    assert np.abs(a / ref - 1).max() < 1e-5
+    near = x >= -12.0
+    assert np.abs(b[near] / ref[near] - 1).max() < 5e-6
+    assert np.abs(b / ref - 1).max() < 2.5e-3
+
+
+@pytest.mark.parametrize("kern", [sg_kernel(16384.0, 4.5), sg_kernel(500.0, 4.5),
+                                  difference_kernel(16384.0, 8192.0, 4.5)[0],
+                                  difference_kernel(1448.2, 724.1, 4.5)[0],
+                                  difference_kernel(1024.0, 512.0, 6.0)[0]],
+                         ids=["sg16384", "sg500", "chain16384", "chain1448", "chain1024-t6"])
+def test_exponent_poly(kern):
+    """Pass 2's line weight exponent as one polynomial in x = sin²h (`exponent_poly`) against
+    P(λ_d(1 − cos h)) computed exactly, over every line in reach."""
+    from sgpipe.envmap._rows_jit import _sin_hmax, exponent_poly
+
+    e = exponent_poly(kern)
+    x = np.linspace(0.0, _sin_hmax(float(kern[0]), float(kern[1])) ** 2, 20001)
+    z = kern[0] * x / (1.0 + np.sqrt(1.0 - x))
+    exact = z * (kern[2] + z * (kern[3] + z * (kern[4] + z * kern[5])))
+    fit = 32.0 * x * (e[0] + x * (e[1] + x * (e[2] + x * e[3])))
+    assert np.abs(fit - exact).max() < 1e-7
