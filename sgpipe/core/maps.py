@@ -86,13 +86,18 @@ def cubemap_texel_dirs(res):
     return cubemap_dir(f, c[None, None, :], c[None, :, None])
 
 
-def cubemap_solid_angles(res):
-    """Exact texel solid angles (6, res, res) via A(x, y) = atan2(xy, sqrt(x² + y² + 1))."""
+def cubemap_face_solid_angles(res):
+    """Exact texel solid angles (res, res) of one face (the same on all six) via
+    A(x, y) = atan2(xy, sqrt(x² + y² + 1))."""
     e = np.linspace(-1.0, 1.0, res + 1)
     x, y = e[None, :], e[:, None]
     a = np.arctan2(x * y, np.sqrt(x * x + y * y + 1.0))     # A at every texel corner, once
-    om = a[1:, 1:] - a[1:, :-1] - a[:-1, 1:] + a[:-1, :-1]
-    return np.broadcast_to(om, (6, res, res)).copy()
+    return a[1:, 1:] - a[1:, :-1] - a[:-1, 1:] + a[:-1, :-1]
+
+
+def cubemap_solid_angles(res):
+    """Exact texel solid angles (6, res, res) (`cubemap_face_solid_angles` on every face)."""
+    return np.broadcast_to(cubemap_face_solid_angles(res), (6, res, res)).copy()
 
 
 # --- dual paraboloid (Heidrich–Seidel, scale b as in paper 000 eq 11 / Colbert–Křivánek) -----

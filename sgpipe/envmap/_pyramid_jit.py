@@ -11,9 +11,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import get_thread_id, njit, prange
 
-from sgpipe.envmap._cube_jit import face_dir
+from sgpipe.envmap._cube_jit import FACE_UVA, face_dir
 
 # component slots of a source row block
 CX, CY, CZ, E0, E1, E2, S2 = range(7)
@@ -76,19 +76,52 @@ def moment_downsample(src):
 
 
 @njit(cache=True, parallel=True)
-def point_masses(dirs, energy, mask):
-    """Row blocks (6, N, NCOMP, N) float32 of the texels as point masses: centres `dirs`
-    (6, N, N, 3), energies (6, N, N, 3) where `mask`, else 0, zero spread."""
-    n = dirs.shape[1]
-    out = np.empty((6, n, NCOMP, n), np.float32)
+def layer_masses(cube, omega, mask, keep, out):
+    """Row blocks (6, N, NCOMP, N) float32 of a cubemap's texels as point masses: centres at
+    the texel-centre directions (`cube_texel_dirs_jit`), energies L·Ω (Ω = omega (N, N), the
+    face's texel solid angles) where mask == keep, else 0, zero spread; and the energy per
+    row (6, N, 3) float64 of the texels kept (deterministic: one job per row). `out` (6, N,
+    NCOMP, N) float32 comes from the caller (numpy's large allocations are huge-page advised:
+    ~10× fewer page faults than an allocation made here)."""
+    n = cube.shape[1]
+    rows = np.zeros((6, n, 3))
     for job in prange(6 * n):
         f = job // n
         i = job % n
+        r0 = r1 = r2 = 0.0
         for j in range(n):
-            for c in range(3):
-                out[f, i, CX + c, j] = dirs[f, i, j, c]
-                out[f, i, E0 + c, j] = energy[f, i, j, c] if mask[f, i, j] else 0.0
+            x, y, z = face_dir(FACE_UVA, f, (j + 0.5) / n, (i + 0.5) / n)
+            out[f, i, CX, j] = x
+            out[f, i, CY, j] = y
+            out[f, i, CZ, j] = z
+            if mask[f, i, j] == keep:
+                e0 = cube[f, i, j, 0] * omega[i, j]
+                e1 = cube[f, i, j, 1] * omega[i, j]
+                e2 = cube[f, i, j, 2] * omega[i, j]
+                r0 += e0
+                r1 += e1
+                r2 += e2
+            else:
+                e0 = e1 = e2 = 0.0
+            out[f, i, E0, j] = e0
+            out[f, i, E1, j] = e1
+            out[f, i, E2, j] = e2
             out[f, i, S2, j] = 0.0
+        rows[f, i, 0] = r0
+        rows[f, i, 1] = r1
+        rows[f, i, 2] = r2
+    return out, rows
+
+
+@njit(cache=True)
+def texel_dirs_at(f, i, j, n):
+    """Texel-centre directions (k, 3) of the texels (f[k], i[k], j[k]) of an n² cubemap."""
+    out = np.empty((f.shape[0], 3))
+    for k in range(f.shape[0]):
+        x, y, z = face_dir(FACE_UVA, f[k], (j[k] + 0.5) / n, (i[k] + 0.5) / n)
+        out[k, 0] = x
+        out[k, 1] = y
+        out[k, 2] = z
     return out
 
 
@@ -275,7 +308,6 @@ def _accumulate_row(r, j0, j1, P, nq, lam, cut, acc):
             acc[5, q] += e2 * wd
 
 
-_F32TH = np.float32(1.0 / 32.0)
 _FM1 = np.float32(-1.0)
 
 
@@ -301,22 +333,18 @@ def exp32_scaled(y):
 
 
 @njit(cache=True, fastmath=True, inline="always")
-def fast_exp32_short(x):
-    """e^x for x in [−32, 0] (clamped): `exp32_scaled`(x/32); four operations fewer than
-    `fast_exp32`."""
-    return exp32_scaled(min(x, _F0) * _F32TH)
-
-
-@njit(cache=True, fastmath=True, inline="always")
 def _poly_tap(cx, cy, cz, px, py, pz, scale, zcut, k1, k2, k3, k4, g0, g1, g2, g3):
     """(w, w·r) of the zonal kernel w = exp(z(k1 + z(k2 + z(k3 + z k4)))), z = scale·(1 − c·p),
-    cut at z > zcut, and r = g0 + z(g1 + z(g2 + z g3)) (the λ-derivative over the kernel)."""
+    cut at z > zcut, and r = g0 + z(g1 + z(g2 + z g3)) (the λ-derivative over the kernel).
+    k1 … k4 come divided by 32 (`exp32_scaled`); the polynomials in Estrin's form (short
+    dependency chains)."""
     dx = cx - px
     dy = cy - py
     dz = cz - pz
     z = scale * _FH * (dx * dx + dy * dy + dz * dz)
-    w = fast_exp32_short(z * (k1 + z * (k2 + z * (k3 + z * k4)))) * (z <= zcut)
-    return w, w * (g0 + z * (g1 + z * (g2 + z * g3)))
+    z2 = z * z
+    w = exp32_scaled(z * ((k1 + z * k2) + z2 * (k3 + z * k4))) * (z <= zcut)
+    return w, w * ((g0 + z * g1) + z2 * (g2 + z * g3))
 
 
 @njit(cache=True, fastmath=True)
@@ -326,8 +354,8 @@ def _accumulate_poly(r, j0, j1, P, nq, kern, acc):
     tile's outputs: independent exp chains keep the vector units busy."""
     scale = np.float32(kern[0])
     zcut = np.float32(kern[1])
-    k1, k2, k3, k4 = (np.float32(kern[2]), np.float32(kern[3]), np.float32(kern[4]),
-                      np.float32(kern[5]))
+    k1, k2, k3, k4 = (np.float32(kern[2] / 32.0), np.float32(kern[3] / 32.0),
+                      np.float32(kern[4] / 32.0), np.float32(kern[5] / 32.0))
     g0, g1, g2, g3 = (np.float32(kern[6]), np.float32(kern[7]), np.float32(kern[8]),
                       np.float32(kern[9]))
     for j in range(j0, j1 + 1, 4):
@@ -444,38 +472,41 @@ _Z = math.sqrt(3.0) - 2.0          # pole of the cubic B-spline prefilter
 
 
 @njit(cache=True, parallel=True)
-def finish_level(acc, lam, norm, extra, values, slopes, plain):
+def finish_level(acc, lam, norm, extra, values, slopes, plain, scratch):
     """From the gathered Γ, ∂Γ/∂λ (6, m, m, 6): V = Γ/S(λ), m = λ Γ'/Γ, then cubic B-spline
     coefficients per face and channel (rows, then columns), cropped by `extra` into the
     (6·w, w, 3) float32 images `values` and `slopes` (w = m − 2·extra); `plain` (6·(w−2), w−2, 3)
-    receives the V samples themselves with a 1-texel border."""
+    receives the V samples themselves with a 1-texel border. One job per face and quantity,
+    three channels at once (the accumulator is read twice, the images written contiguously);
+    each thread works in its own row of `scratch` (float64, ≥ 3·m² per thread: the caller's,
+    reused from level to level)."""
     m = acc.shape[1]
     w = m - 2 * extra
-    for job in prange(6 * 6):
-        f = job // 6
-        c = job % 6
-        buf = np.empty((m, m))
+    wp = w - 2
+    for job in prange(12):
+        f = job // 2
+        slope = job % 2 == 1
+        buf = scratch[get_thread_id(), :3 * m * m].reshape((m, 3 * m))
         for i in range(m):
             for j in range(m):
-                g = acc[f, i, j, c % 3]
-                if c < 3:
-                    buf[i, j] = g / norm
-                else:
-                    buf[i, j] = lam * acc[f, i, j, c] / g if g > 0.0 else 0.0
-        if c < 3:
-            wp = w - 2
+                for c in range(3):
+                    g = acc[f, i, j, c]
+                    if slope:
+                        buf[i, 3 * j + c] = lam * acc[f, i, j, c + 3] / g if g > 0.0 else 0.0
+                    else:
+                        buf[i, 3 * j + c] = g / norm
+        if not slope:
             for i in range(wp):
                 for j in range(wp):
-                    plain[f * wp + i, j, c] = buf[i + extra + 1, j + extra + 1]
-        _prefilter_rows(buf)                # along i (vectorised over j)
-        bt = np.ascontiguousarray(buf.T)
-        _prefilter_rows(bt)                 # along j
+                    for c in range(3):
+                        plain[f * wp + i, j, c] = buf[i + extra + 1, 3 * (j + extra + 1) + c]
+        _prefilter_rows(buf)                # along i (vectorised over j and the channels)
+        _prefilter_interleaved(buf, 3)      # along j, row by row (a transpose costs more)
+        img = slopes if slope else values
         for i in range(extra, m - extra):
             for j in range(extra, m - extra):
-                if c < 3:
-                    values[f * w + i - extra, j - extra, c] = bt[j, i]
-                else:
-                    slopes[f * w + i - extra, j - extra, c - 3] = bt[j, i]
+                for c in range(3):
+                    img[f * w + i - extra, j - extra, c] = buf[i, 3 * j + c]
 
 
 @njit(cache=True)
@@ -505,6 +536,34 @@ def _prefilter_rows(b):
             b[k, j] = z * (b[k + 1, j] - b[k, j])
 
 
+@njit(cache=True)
+def _prefilter_interleaved(b, nc):
+    """`_prefilter_rows` along axis 1 of b (r, m·nc) holding m samples of nc interleaved
+    channels per row: the same recursions, one row at a time."""
+    z = _Z
+    r = b.shape[0]
+    n = b.shape[1] // nc
+    horizon = min(n, 30)
+    c_end = z / (z * z - 1.0)
+    for i in range(r):
+        row = b[i]
+        for c in range(nc):
+            s = 0.0
+            zk = 1.0
+            for k in range(horizon):
+                s += zk * row[k * nc + c]
+                zk *= z
+            row[c] = 6.0 * s
+        for k in range(1, n):
+            for c in range(nc):
+                row[k * nc + c] = 6.0 * row[k * nc + c] + z * row[(k - 1) * nc + c]
+        for c in range(nc):
+            row[(n - 1) * nc + c] = c_end * (row[(n - 1) * nc + c] + z * row[(n - 2) * nc + c])
+        for k in range(n - 2, -1, -1):
+            for c in range(nc):
+                row[k * nc + c] = z * (row[(k + 1) * nc + c] - row[k * nc + c])
+
+
 @njit(cache=True, inline="always")
 def _step5(y):
     """C⁵ step 0 → 1 on [0, 1] with S(y) + S(1 − y) = 1 (S' ∝ y⁵(1 − y)⁵)."""
@@ -513,18 +572,24 @@ def _step5(y):
         1386.0 - 252.0 * y)))))
 
 
+def chain_source_shape(n, pad, step):
+    """Shape of `chain_source`'s row blocks."""
+    m = (n + 2 * pad + step - 1) // step
+    return (6, m, NCOMP, m)
+
+
 @njit(cache=True, parallel=True)
-def chain_source(acc, n, ext, norm, pad, blend, uva, step):
+def chain_source(acc, n, ext, norm, pad, blend, uva, step, out):
     """Masses of a level's V = acc[..., 0:3]/norm at every `step`-th of its texel centres
     extended `pad` texels beyond each face (row blocks (6, m, NCOMP, m), m = ⌈(n + 2·pad)/step⌉,
     centres at c0 + i·step·h, c0 = −1 + (½ − pad)·h, h = 2/n), weighted for the quadrature
     of smooth integrands over S²: the midpoint rule in face coordinates (J·h²) times the face's
     share φ_f of a smooth partition of unity (C⁵ steps of half-width `blend` texels across every
-    face edge, normalised over the faces). See pyramid._chain_source."""
+    face edge, normalised over the faces), into `out` (zeros, `chain_source_shape`). See
+    pyramid._chain_source."""
     m = (n + 2 * pad + step - 1) // step
     h = 2.0 / n
     d = 2.0 * blend * h
-    out = np.zeros((6, m, NCOMP, m), np.float32)
     for job in prange(6 * m):
         f = job // m
         i = job % m

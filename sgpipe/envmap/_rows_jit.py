@@ -320,11 +320,14 @@ def _diagonal(qa, qb, ca, cb, e0, e1, e2, a0, a1, a2, b0, b1, b2, k0, j0, n, lam
 
 
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
-def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1, src, own, c0_src, h_src):
+def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1, src, own, c0_src, h_src,
+              store):
     """C (L, NARR, m1) float32: per line (`build_lines`), B-spline coefficients of
     C0 = Σ_j E_j e^{P(ẑ)} and C1 = Σ_j E_j ẑ e^{P(ẑ)} (3 channels each) at the line's sample
     points s_k = x0 + k·h_o (h_o = 2/n_out) in its frame, ẑ = λ_d(1 − c_j·q_k) cut at
-    ẑ ≤ zcut; kern = (λ_d, zcut, k1, k2, k3, k4)."""
+    ẑ ≤ zcut; kern = (λ_d, zcut, k1, k2, k3, k4). C lives at the front of `store` (float32,
+    at least L·NARR·m1: the caller's buffer, reused from level to level, so the build does not
+    fault in fresh pages for it at every level)."""
     n_lines = t_line.shape[0]
     h_o = 2.0 / n_out
     lam = kern[0]
@@ -336,7 +339,7 @@ def row_pass1(t_line, m_off, m_ca, m_cb, m_s, m_e, kern, n_out, x0, m1, src, own
     k4 = np.float32(kern[5] / 32.0)
     cmax = max(-1.0, 1.0 - zcut / lam)
     tau = math.sqrt(max(0.0, 1.0 - cmax * cmax)) / cmax if cmax > 0.0 else 1e3
-    out = np.empty((n_lines, NARR, m1), np.float32)
+    out = store[:n_lines * NARR * m1].reshape((n_lines, NARR, m1))
     lamh = np.float32(0.5 * lam)
     zc = np.float32(zcut)
     for ln in prange(n_lines):

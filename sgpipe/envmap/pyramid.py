@@ -24,12 +24,13 @@ import math
 import time
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
-from sgpipe.core.maps import cubemap_solid_angles, cubemap_texel_dirs
+from sgpipe.core.maps import cubemap_face_solid_angles
 from sgpipe.envmap import _pyramid_jit as _pj
 from sgpipe.envmap import _rows_jit as _rj
-from sgpipe.envmap._cube_jit import FACE_UVA, cube_texel_dirs_jit, sample_bordered
+from sgpipe.envmap._cube_jit import FACE_UVA, sample_bordered
 from sgpipe.envmap.maps import faces_to_image
 from sgpipe.envmap.mip import bordered_box_level
 from sgpipe.envmap.sgkernel import difference_kernel, sg_kernel
@@ -115,10 +116,19 @@ def pyramid_levels(n_finest: int, s: PyramidSettings) -> tuple[np.ndarray, np.nd
     return lams, res
 
 
-def _point_masses(dirs: np.ndarray, energy: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Finest source row blocks (6, N, NCOMP, N) float32: texel centres, energies L·Ω (masked),
-    zero spread."""
-    return _pj.point_masses(dirs, energy, mask)
+def _point_masses(cube: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+    """Finest source row blocks (6, N, NCOMP, N) float32 of a (6, N, N, 3) cubemap: texel
+    centres, energies L·Ω (where `mask`, default everywhere), zero spread."""
+    cube = np.ascontiguousarray(cube, dtype=np.float64)
+    if mask is None:
+        mask = np.ones(cube.shape[:3], bool)
+    return _layer_masses(cube, cubemap_face_solid_angles(cube.shape[1]), mask, True)[0]
+
+
+def _layer_masses(cube, omega, mask, keep):
+    """`_pyramid_jit.layer_masses` into a numpy-allocated block."""
+    n = cube.shape[1]
+    return _pj.layer_masses(cube, omega, mask, keep, np.empty((6, n, _pj.NCOMP, n), np.float32))
 
 
 class _MomentMip:
@@ -345,7 +355,8 @@ def _chain_source(acc: np.ndarray, n: int, ext: int, norm: float, step: int):
     chain's weights left 3e-4 per level near the corners, 4e-3 after eleven levels). `step` 2
     keeps every other texel (the blend must stay wide on that grid: at 3.5 texels the
     subsampled chain lost 7e-4 per level near the edges, at 5 it matches `step` 1)."""
-    src = _pj.chain_source(acc, n, ext, norm, _CHAIN_PAD, _CHAIN_BLEND, FACE_UVA, step)
+    src = np.zeros(_pj.chain_source_shape(n, _CHAIN_PAD, step), np.float32)
+    _pj.chain_source(acc, n, ext, norm, _CHAIN_PAD, _CHAIN_BLEND, FACE_UVA, step, src)
     h = 2.0 / n
     return src, _pj.row_extents(src), step * h, -1.0 + (0.5 - _CHAIN_PAD) * h
 
@@ -356,13 +367,14 @@ T_LIM_MAX = 1.6     # rows only while the lines in reach stay within |t| ≤ thi
 
 
 def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
-                t_build=0.0) -> bool:
+                t_build=0.0, store=None) -> bool:
     """Add Γ, ∂Γ/∂λ of the zonal kernel `kern` (the gather's layout) over the masses `src` (row
     blocks on the grid (h, c0): centres at c0 + i·h) to the bordered accumulator acc by the
     row-factorised passes (_rows_jit): each face's rows and columns as two pencils of great
     circles, with the neighbouring faces' masses on the lines of the same pencils. False
     (nothing added) for λ_d below `lam_min` or beyond T_LIM_MAX. `lines_cache` (a dict) keeps
-    the lines of `src` for the next call with the same source (built out to t_build)."""
+    the lines of `src` for the next call with the same source (built out to t_build); `store`
+    (a dict) keeps the float32 buffer of the row sums for the next call."""
     lam_d, zcut = float(kern[0]), float(kern[1])
     if lam_d < lam_min:
         return False
@@ -390,8 +402,14 @@ def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
     x0 = -1.0 + (0.5 - ext - margin) * h_o
     kappa = 2.0 * kern[3] - kern[2] / lam_d
     k6 = np.ascontiguousarray(kern[:6], dtype=np.float64)
+    need = len(t) * _rj.NARR * m1
+    buf = store.get("C") if store is not None else None
+    if buf is None or buf.size < need:
+        buf = np.empty(need, np.float32)
+        if store is not None:
+            store["C"] = buf
     C = _rj.row_pass1(t, m_off, m_ca, m_cb, m_s, m_e, k6, n_out, x0, m1, src, own,
-                      float(grid[1]), float(grid[0]))
+                      float(grid[1]), float(grid[0]), buf)
     _rj.row_pass2(C, key_off, order, t, k6, _rj.exponent_poly(kern), float(kappa),
                   float(kern[6]), float(kern[7]), n_out, int(ext), x0, acc)
     return True
@@ -406,16 +424,22 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     lams, res = pyramid_levels(n_fin, s)
     lum = cube[..., 0] + cube[..., 1] + cube[..., 2]
     bright, tau, med = _bright_mask(lum, s.bright_factor)
-    dirs = cube_texel_dirs_jit(n_fin)
-    energy = cube * cubemap_solid_angles(n_fin)[..., None]
-    dim = _MomentMip(_point_masses(dirs, energy, ~bright))
+    omega = cubemap_face_solid_angles(n_fin)
+    src0, row_energy = _layer_masses(cube, omega, bright, False)
+    dim = _MomentMip(src0)
     n_bright = int(bright.sum())
     as_points = 0 < n_bright <= s.max_points
     point_dirs, point_energy = np.zeros((0, 3)), np.zeros((0, 3))
     if as_points:       # a sun / a few lamps: exact at every λ, no λ interpolation error
-        point_dirs, point_energy = dirs[bright].copy(), energy[bright].copy()
-    brt = _MomentMip(_point_masses(dirs, energy, bright)) if n_bright and not as_points else None
-    del dirs
+        fb, ib, jb = np.nonzero(bright)
+        point_dirs = _pj.texel_dirs_at(fb, ib, jb, n_fin)
+        point_energy = cube[fb, ib, jb] * omega[ib, jb][:, None]
+    brt = None
+    if n_bright and not as_points:
+        src0, row_bright = _layer_masses(cube, omega, bright, True)
+        brt = _MomentMip(src0)
+        row_energy += row_bright
+    del src0
     contrast = float(lum.max()) / med
     bright_rows = contrast <= s.bright_rows_max_contrast
     t_bright = s.tail_bright or float(np.clip(
@@ -454,9 +478,16 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     t_direct = max(_rj.reach_t(float(lams[i]), 0.5 * s.tail_dim ** 2, int(res[i]), ext)
                    for i in range(n_direct))
     sources = {}            # (a, step) -> level a as quadrature masses (`_chain_source`)
+    # work buffers sized for level 0 and reused by every level: fresh pages cost ~3 µs each to
+    # fault in (level 0 alone would fault in ~50 MB of accumulator, row sums and prefilter rows)
+    m0 = int(res[0]) + 2 * ext
+    acc_store = np.empty(6 * m0 * m0 * 6, np.float32)
+    scratch = np.empty((numba.get_num_threads(), 3 * m0 * m0))
+    row_store = {}
     for idx, (lam, n) in enumerate(zip(lams, res)):
         sigma = 1.0 / math.sqrt(lam)
-        acc = np.zeros((6, n + 2 * ext, n + 2 * ext, 6), np.float32)
+        acc = acc_store[:6 * (n + 2 * ext) ** 2 * 6].reshape(6, n + 2 * ext, n + 2 * ext, 6)
+        acc.fill(0.0)
         by_rows = False
         if idx < n_direct:  # the sharpest levels: straight from the map's texels
             for mip, tail in ((dim, s.tail_dim), (brt, t_bright)):
@@ -469,7 +500,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                     # rows' B-spline of the row sums is ~1e-3 off in the tails of a 10⁵ × sun
                     if (mip is dim or bright_rows) and _row_gather(
                             src, grid, kern, n, ext, acc, s.rows_lambda_min,
-                            map_lines if mip is dim else None, t_direct):
+                            map_lines if mip is dim else None, t_direct, row_store):
                         by_rows = True
                     else:
                         _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut,
@@ -478,7 +509,8 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
             a, step, (kern, amp, _) = plan[idx]
             src, ex, h_src, c0 = sources.pop((a, step))
             cos_cut = max(-2.0, 1.0 - kern[1] / kern[0])
-            by_rows = _row_gather(src, (h_src, c0), kern, n, ext, acc, s.rows_lambda_min)
+            by_rows = _row_gather(src, (h_src, c0), kern, n, ext, acc, s.rows_lambda_min,
+                                  store=row_store)
             if not by_rows:
                 _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,
                               kern, h_src, c0)
@@ -499,7 +531,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         row_levels += by_rows
         if idx == n_direct - 1:
             map_lines.clear()           # (memory: the chained levels have their own sources)
-        _pj.finish_level(acc, float(lam), float(sg_norm(lam)), _EXTRA, vals, slps, smp)
+        _pj.finish_level(acc, float(lam), float(sg_norm(lam)), _EXTRA, vals, slps, smp, scratch)
         values.append(vals)
         slopes.append(slps)
         samples.append(smp)
@@ -515,7 +547,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
             if brt is not None:
                 brt.release_below(brt.pick(nxt, s.bright_src_texels_per_sigma))
     # mean of what the levels hold (the map minus the point set): their λ → 0 limit
-    mean = (energy.reshape(-1, 3).sum(axis=0) - point_energy.sum(axis=0)) / (4.0 * np.pi)
+    mean = row_energy.sum(axis=(0, 1)) / (4.0 * np.pi)
     info = {"tau_bright": tau, "bright_texels": n_bright, "tail_bright": t_bright,
             "direct_levels": n_direct, "chained_levels": len(plan),   # levels n_direct …
             "row_levels": row_levels,
