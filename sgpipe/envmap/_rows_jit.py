@@ -104,7 +104,6 @@ def _candidates(uva, m):
     return out[:n]
 
 
-@njit(cache=True, parallel=True)
 def build_lines(src, uva, t_lim, min_ca):
     """The source masses of every face's two row pencils as lines (the module docstring).
 
@@ -116,7 +115,24 @@ def build_lines(src, uva, t_lim, min_ca):
     t, m_off, m_ca, m_cb, m_s, m_e): lines of frame k at order[key_off[k]:key_off[k+1]] sorted
     by their frame coordinate t; masses of line ℓ at [m_off[ℓ], m_off[ℓ+1]) with row-local
     coordinates (c·U, √(1+t²)·c·A), position s = c·U/c·A and energies m_e (3, ·); own[ℓ] =
-    f·M + i for face f's own row i (M = rows per face), −1 for a neighbour's line."""
+    f·M + i for face f's own row i (M = rows per face), −1 for a neighbour's line.
+
+    Two compiled passes (`_lines_count`, `_lines_fill`); the mass arrays come from numpy
+    (huge-page advised: a fresh 4 KB page costs ~3 µs to fault in, and the map's lines are
+    ~50 MB at 512²)."""
+    cand, tc, cnt = _lines_count(src, uva, t_lim, min_ca)
+    n_mass = int(cnt.sum())
+    m_ca = np.empty(n_mass, np.float32)
+    m_cb = np.empty(n_mass, np.float32)
+    m_s = np.empty(n_mass, np.float32)
+    m_e = np.empty((3, n_mass), np.float32)
+    return _lines_fill(src, uva, cand, tc, cnt, min_ca, m_ca, m_cb, m_s, m_e)
+
+
+@njit(cache=True, parallel=True)
+def _lines_count(src, uva, t_lim, min_ca):
+    """Candidate lines (`_candidates`), their frame coordinate t and mass count (0: none or
+    beyond t_lim)."""
     m = src.shape[1]
     cand = _candidates(uva, m)
     nc = cand.shape[0]
@@ -145,6 +161,14 @@ def build_lines(src, uva, t_lim, min_ca):
             c += 1
         tc[q] = tl
         cnt[q] = c if abs(tl) <= t_lim else 0
+    return cand, tc, cnt
+
+
+@njit(cache=True, parallel=True)
+def _lines_fill(src, uva, cand, tc, cnt, min_ca, m_ca, m_cb, m_s, m_e):
+    """`build_lines` after `_lines_count`: the kept lines, sorted by t per frame, with their
+    masses written into m_ca, m_cb, m_s, m_e (sized for cnt.sum())."""
+    m = src.shape[1]
     # keep the lines with masses, grouped by frame (candidates come in key order)
     keep = np.nonzero(cnt > 0)[0]
     n_lines = keep.shape[0]
@@ -163,11 +187,6 @@ def build_lines(src, uva, t_lim, min_ca):
         key_off[cand[q, 0] + 1] = ln + 1
     for key in range(12):
         key_off[key + 1] = max(key_off[key + 1], key_off[key])
-    n_mass = m_off[n_lines]
-    m_ca = np.empty(n_mass, np.float32)
-    m_cb = np.empty(n_mass, np.float32)
-    m_s = np.empty(n_mass, np.float32)
-    m_e = np.empty((3, n_mass), np.float32)
     for ln in prange(n_lines):
         q = keep[ln]
         U, V, A = _frame(uva, cand[q, 0])
@@ -470,12 +489,14 @@ def _block(p0, q0, p1, q1, p2, q2, a0, b0_, a1, b1_, a2, b2_, jf, ir2, kb, jb, b
 
 
 @njit(cache=True, parallel=True, fastmath=True, error_model="numpy")
-def row_pass2(C, key_off, order, t_line, kern, ecoef, kappa, g0, g1, n_out, ext, x0, out):
+def row_pass2(C, key_off, order, t_line, kern, ecoef, kappa, g0, g1, n_out, ext, x0, out,
+              key_lo, key_hi):
     """out[f, o, j, 0:3] += Γ, out[..., 3:6] += ∂Γ/∂λ at the bordered output texel centres
     (s_j, t_o) = −1 + (j − ext + ½)·2/n_out of a (6, n_out + 2·ext, …) cubemap, from the pass-1
     coefficients C of the lines (`build_lines`) for the kernel kern = (λ_d, zcut, k1 … k4) (its
     exponent as `exponent_poly(kern)`), its cross term κ and derivative g0 + g1 z (module
-    docstring); frame r = 1 (columns) writes transposed."""
+    docstring); frame r = 1 (columns) writes transposed. Frames key_lo … key_hi − 1 only, whose
+    lines are key_off[key_lo] … key_off[key_hi] − 1: C[ℓ − key_off[key_lo]] belongs to line ℓ."""
     m1 = C.shape[2]
     h_o = 2.0 / n_out
     m = n_out + 2 * ext
@@ -490,8 +511,9 @@ def row_pass2(C, key_off, order, t_line, kern, ecoef, kappa, g0, g1, n_out, ext,
     e4 = np.float32(ecoef[3])
     kap = np.float32(kappa)
     bi = -x0 / h_o                  # foot position → sample index: ai·s + bi
-    for job in prange(12 * m):
-        key = job // m
+    ln0 = key_off[key_lo]
+    for job in prange((key_hi - key_lo) * m):
+        key = key_lo + job // m
         f = key // 2
         r = key % 2
         o = job % m
@@ -517,7 +539,8 @@ def row_pass2(C, key_off, order, t_line, kern, ecoef, kappa, g0, g1, n_out, ext,
             d2 = (t0 - ti) * (t0 - ti) / (1.0 + ti * ti)     # sin²h = d2 / r0²
             ai = a / h_o
             dl = np.float32(a - 1.0)
-            v0, v1, v2, w0, w1, w2 = C[ln, 0], C[ln, 1], C[ln, 2], C[ln, 3], C[ln, 4], C[ln, 5]
+            cl = ln - ln0
+            v0, v1, v2, w0, w1, w2 = C[cl, 0], C[cl, 1], C[cl, 2], C[cl, 3], C[cl, 4], C[cl, 5]
             # blocks of outputs sharing a base index kb: lane jj's foot is o = 1 … 3 samples
             # past tap kb + jj (5 taps: the fraction takes one) and drifts by a − 1 per lane;
             # kb puts the first lane at 1 + frac (a ≥ 1) or 2 + frac (a < 1), so a block may

@@ -402,16 +402,23 @@ def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
     x0 = -1.0 + (0.5 - ext - margin) * h_o
     kappa = 2.0 * kern[3] - kern[2] / lam_d
     k6 = np.ascontiguousarray(kern[:6], dtype=np.float64)
-    need = len(t) * _rj.NARR * m1
-    buf = store.get("C") if store is not None else None
-    if buf is None or buf.size < need:
-        buf = np.empty(need, np.float32)
-        if store is not None:
-            store["C"] = buf
-    C = _rj.row_pass1(t, m_off, m_ca, m_cb, m_s, m_e, k6, n_out, x0, m1, src, own,
-                      float(grid[1]), float(grid[0]), buf)
-    _rj.row_pass2(C, key_off, order, t, k6, _rj.exponent_poly(kern), float(kappa),
-                  float(kern[6]), float(kern[7]), n_out, int(ext), x0, acc)
+    ecoef = _rj.exponent_poly(kern)
+    # one frame at a time: its lines' row sums (≤ ~5 MB at 512²) stay in the cache for pass 2
+    # and the buffer is small
+    for key in range(12):
+        a, b = int(key_off[key]), int(key_off[key + 1])
+        if a == b:
+            continue
+        need = (b - a) * _rj.NARR * m1
+        buf = store.get("C") if store is not None else None
+        if buf is None or buf.size < need:
+            buf = np.empty(need, np.float32)
+            if store is not None:
+                store["C"] = buf
+        C = _rj.row_pass1(t[a:b], m_off[a:b + 1], m_ca, m_cb, m_s, m_e, k6, n_out, x0, m1, src,
+                          own[a:b], float(grid[1]), float(grid[0]), buf)
+        _rj.row_pass2(C, key_off, order, t, k6, ecoef, float(kappa), float(kern[6]),
+                      float(kern[7]), n_out, int(ext), x0, acc, key, key + 1)
     return True
 
 
@@ -484,6 +491,21 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     acc_store = np.empty(6 * m0 * m0 * 6, np.float32)
     scratch = np.empty((numba.get_num_threads(), 3 * m0 * m0))
     row_store = {}
+    # every level's images carved from one block (one huge-page advised allocation faults in
+    # a few hundred pages instead of ~10⁴)
+    shapes = []
+    for n in res:
+        w = int(n) + 2 * BORDER
+        shapes.append(((6 * w, w, 3), (6 * w, w, 3), (6 * (n + 2), n + 2, 3)))
+    block = np.empty(sum(math.prod(sh) for lv in shapes for sh in lv), np.float32)
+    out_views, pos = [], 0
+    for lv in shapes:
+        views = []
+        for sh in lv:
+            views.append(block[pos:pos + math.prod(sh)].reshape(sh))
+            pos += math.prod(sh)
+        out_views.append(tuple(views))
+    del block
     for idx, (lam, n) in enumerate(zip(lams, res)):
         sigma = 1.0 / math.sqrt(lam)
         acc = acc_store[:6 * (n + 2 * ext) ** 2 * 6].reshape(6, n + 2 * ext, n + 2 * ext, 6)
@@ -524,10 +546,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                 cos_cut = max(-2.0, 1.0 - tail * tail / (2.0 * lam))
                 _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,
                               _NO_KERN, *_map_grid(src.shape[1]))
-        w = int(n) + 2 * BORDER
-        vals = np.empty((6 * w, w, 3), np.float32)
-        slps = np.empty((6 * w, w, 3), np.float32)
-        smp = np.empty((6 * (n + 2), n + 2, 3), np.float32)
+        vals, slps, smp = out_views[idx]
         row_levels += by_rows
         if idx == n_direct - 1:
             map_lines.clear()           # (memory: the chained levels have their own sources)
