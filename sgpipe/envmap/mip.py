@@ -13,15 +13,20 @@ from sgpipe.envmap._cube_jit import sample_dirs_bordered
 from sgpipe.envmap.maps import faces_to_image, image_to_dual_paraboloid, sample_dual_paraboloid
 
 
-def bordered_box_level(faces: np.ndarray) -> np.ndarray:
+def bordered_box_level(faces: np.ndarray, dtype=None, zero=None) -> np.ndarray:
     """(6, n, n, C) → (6·(n+2), n+2, C): a 1-texel border per face holding the neighbouring
     face bilinearly sampled (clamped inside that face) at the border texel's extended-plane
-    direction, so per-face bilinear fetches agree across seams to second order."""
+    direction, so per-face bilinear fetches agree across seams to second order. `dtype`
+    (default the input's) and `zero` (a (6, n, n) mask of texels set to 0 first) spare the
+    caller a converted or masked copy of the faces."""
     faces = np.asarray(faces)
     n = faces.shape[1]
     m = n + 2
-    out = np.zeros((6, m, m, faces.shape[3]), faces.dtype)
+    out = np.zeros((6, m, m, faces.shape[3]), dtype or faces.dtype)
     out[:, 1:-1, 1:-1] = faces
+    if zero is not None:
+        out[:, 1:-1, 1:-1][zero] = 0.0
+    faces = out[:, 1:-1, 1:-1]
     ring = np.zeros((m, m), bool)
     ring[0, :] = ring[-1, :] = ring[:, 0] = ring[:, -1] = True
     ii, jj = np.nonzero(ring)

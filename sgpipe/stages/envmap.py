@@ -57,6 +57,7 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
         run.report["pyramid_points"] = pyr.info["points"]
         run.report["pyramid_chained_levels"] = pyr.info["chained_levels"]
         run.report["pyramid_row_levels"] = pyr.info["row_levels"]
+        run.report["pyramid_texels_per_sigma"] = pyr.info["texels_per_sigma"]
 
         t = time.perf_counter()
         cube_chain = mip.build_cube_chain(cube)

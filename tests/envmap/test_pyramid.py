@@ -21,16 +21,39 @@ def boxes():
     return cube, build_pyramid(cube)
 
 
-def test_levels_log_spaced_from_finest_texel_to_one():
+@pytest.mark.parametrize("k", [None, 2.0])
+def test_levels_log_spaced_from_finest_texel_to_one(k):
     s = PyramidSettings()
-    lams, res = pyramid_levels(128, s)
+    lams, res = pyramid_levels(128, s, k)
+    k = k or 1.5                        # automatic: levels of bounded contrast
     assert lams[0] == pytest.approx((128 / (2 * s.finest_texels_per_sigma)) ** 2)
     np.testing.assert_allclose(lams[:-1] / lams[1:], s.ratio)
     assert lams[-1] <= s.lambda_min < lams[-2]
-    assert res[0] == min(128, np.ceil(2 * s.texels_per_sigma * np.sqrt(lams[0])))
+    assert res[0] == min(128, np.ceil(2 * k * np.sqrt(lams[0])))
     assert np.all(np.diff(res) <= 0) and res[-1] >= s.min_res
     # broad levels are small: resolution follows σ = 1/√λ
-    assert np.all(res[res > s.min_res] >= 2 * s.texels_per_sigma * np.sqrt(lams[res > s.min_res]) - 1)
+    assert np.all(res[res > s.min_res] >= 2 * k * np.sqrt(lams[res > s.min_res]) - 1)
+
+
+def test_storage_density_follows_the_content():
+    """2 texels per σ only when a bright layer above 10³ × the median stays in the levels (a sun
+    too large for the point set), else 1.5; an explicit setting wins."""
+    from .envmap_helpers import sky_sun_cube
+    n = 64
+    sky = sky_sun_cube(n)
+    assert build_pyramid(sky).info["texels_per_sigma"] == 1.5          # sun: point set
+    big_sun = sky.copy()
+    big_sun[2, 20:40, 20:40] = 1e5 * np.median(sky)                     # 400 texels > 256
+    pyr = build_pyramid(big_sun)
+    assert pyr.info["points"] == 0 and pyr.info["texels_per_sigma"] == 2.0
+    np.testing.assert_array_equal(pyr.face_res, pyramid_levels(n, PyramidSettings(), 2.0)[1])
+    lamps = np.minimum(sky, 10.0 * np.median(sky))                     # no sun
+    lamps[2, 20:40, 20:40] = 300.0 * np.median(sky)                    # 300 ×: lamps
+    assert build_pyramid(lamps).info["texels_per_sigma"] == 1.5
+    fixed = build_pyramid(big_sun, PyramidSettings(texels_per_sigma=1.5))
+    assert fixed.info["texels_per_sigma"] == 1.5
+    np.testing.assert_array_equal(fixed.face_res, pyramid_levels(n, PyramidSettings(), 1.5)[1])
+    assert fixed.face_res[2] < pyr.face_res[2]
 
 
 def _rel_err(pyr, cube, lam, dirs):
