@@ -590,6 +590,7 @@ def chain_source(acc, n, ext, norm, pad, blend, uva, step, out):
     m = (n + 2 * pad + step - 1) // step
     h = 2.0 / n
     d = 2.0 * blend * h
+    hh = (step * h) ** 2 / norm
     for job in prange(6 * m):
         f = job // m
         i = job % m
@@ -599,10 +600,11 @@ def chain_source(acc, n, ext, norm, pad, blend, uva, step, out):
             x = s * uva[f, 0, 0] + t * uva[f, 1, 0] + uva[f, 2, 0]
             y = s * uva[f, 0, 1] + t * uva[f, 1, 1] + uva[f, 2, 1]
             z = s * uva[f, 0, 2] + t * uva[f, 1, 2] + uva[f, 2, 2]
-            r = np.sqrt(x * x + y * y + z * z)
-            x /= r
-            y /= r
-            z /= r
+            q = x * x + y * y + z * z           # = 1 + s² + t² (an orthonormal frame)
+            ir = 1.0 / np.sqrt(q)
+            x *= ir
+            y *= ir
+            z *= ir
             total = 1.0
             own = 1.0
             if abs(s) > 1.0 - 0.5 * d or abs(t) > 1.0 - 0.5 * d:    # in a blend: φ_f < 1
@@ -619,8 +621,7 @@ def chain_source(acc, n, ext, norm, pad, blend, uva, step, out):
                 total += ps
                 if g == f:
                     own = ps
-            w = (own / total * (1.0 + s * s + t * t) ** -1.5 * (step * h) ** 2 / norm
-                 if total > 0 else 0.0)
+            w = own / total * (ir * ir * ir) * hh if total > 0 else 0.0
             out[f, i, CX, j] = x
             out[f, i, CY, j] = y
             out[f, i, CZ, j] = z

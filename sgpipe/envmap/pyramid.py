@@ -561,7 +561,10 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                     continue
                 src, ex = mip.source(sigma, k_src)
                 cos_cut = max(-2.0, 1.0 - tail * tail / (2.0 * lam))
-                _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,
+                # small levels: wider tiles (fewer, longer passes over the broad kernel's
+                # source rows; 4 → 8 halves these levels' 2-D gathers)
+                tile = s.tile if n > 32 else 2 * s.tile
+                _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, tile, acc,
                               _NO_KERN, *_map_grid(src.shape[1]))
         vals, slps, smp = out_views[idx]
         row_levels += by_rows
