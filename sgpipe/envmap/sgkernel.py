@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from scipy.special import ive
 
 from sgpipe.core.sg import sg_integral
@@ -31,11 +31,12 @@ def sg_legendre(lam: float, lmax: int) -> tuple[np.ndarray, np.ndarray]:
     return k, dk
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def legendre_series(coef, x):
-    """Σ_l (2l+1)/(4π) coef[l] P_l(x) at each x (three-term recurrence)."""
+    """Σ_l (2l+1)/(4π) coef[l] P_l(x) at each x (three-term recurrence; the nodes in
+    parallel)."""
     out = np.empty((coef.shape[0], x.shape[0]))
-    for m in range(x.shape[0]):
+    for m in prange(x.shape[0]):
         xm = x[m]
         for c in range(coef.shape[0]):
             p0 = 1.0
