@@ -104,7 +104,7 @@ def _candidates(uva, m):
     return out[:n]
 
 
-def build_lines(src, uva, t_lim, min_ca):
+def build_lines(src, uva, t_lim, min_ca, take=None):
     """The source masses of every face's two row pencils as lines (the module docstring).
 
     Frame key = 2f + r of face f: r = 0 (U, V, A) = (U_f, V_f, A_f), its rows; r = 1
@@ -119,13 +119,15 @@ def build_lines(src, uva, t_lim, min_ca):
 
     Two compiled passes (`_lines_count`, `_lines_fill`); the mass arrays come from numpy
     (huge-page advised: a fresh 4 KB page costs ~3 µs to fault in, and the map's lines are
-    ~50 MB at 512²)."""
+    ~50 MB at 512²) or from take(name, shape) (float32 buffers the caller reuses)."""
     cand, tc, cnt = _lines_count(src, uva, t_lim, min_ca)
     n_mass = int(cnt.sum())
-    m_ca = np.empty(n_mass, np.float32)
-    m_cb = np.empty(n_mass, np.float32)
-    m_s = np.empty(n_mass, np.float32)
-    m_e = np.empty((3, n_mass), np.float32)
+    if take is None:
+        take = lambda name, shape: np.empty(shape, np.float32)     # noqa: E731
+    m_ca = take("ca", (n_mass,))
+    m_cb = take("cb", (n_mass,))
+    m_s = take("s", (n_mass,))
+    m_e = take("e", (3, n_mass))
     return _lines_fill(src, uva, cand, tc, cnt, min_ca, m_ca, m_cb, m_s, m_e)
 
 

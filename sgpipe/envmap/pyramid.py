@@ -356,12 +356,35 @@ _CHAIN_PAD = 7      # chain source: texels kept beyond each face edge (a subsamp
 _CHAIN_BLEND = 5.0  # half-width of the faces' partition-of-unity blend, in texels
 
 
+class _Pool:
+    """Work buffers of one build, kept and reused from level to level (grown when a level needs
+    more): fresh pages cost ~2 µs per 4 KB to fault in, and the levels' accumulators, row sums,
+    chain sources and lines add up to several hundred MB over a 512² build. A caller takes a
+    slot only while the previous taker of the same slot is done with it."""
+
+    def __init__(self):
+        self.bufs = {}
+
+    def take(self, key, shape, dtype=np.float32, zero=False) -> np.ndarray:
+        shape = tuple(int(x) for x in shape)
+        size = math.prod(shape)
+        buf = self.bufs.get(key)
+        if buf is None or buf.size < size or buf.dtype != dtype:
+            buf = np.empty(size, dtype)
+            self.bufs[key] = buf
+        out = buf[:size].reshape(shape)
+        if zero:
+            out.fill(0)
+        return out
+
+
 def _map_grid(n: int) -> tuple[float, float]:
     """(h, c0) of a plain cubemap face grid: centres at c0 + i·h."""
     return 2.0 / n, -1.0 + 1.0 / n
 
 
-def _chain_source(acc: np.ndarray, n: int, ext: int, norm: float, step: int):
+def _chain_source(acc: np.ndarray, n: int, ext: int, norm: float, step: int,
+                  out: np.ndarray | None = None):
     """A level's V = Γ/S on its grid extended _CHAIN_PAD texels beyond each face (from the
     gather's accumulator, border `ext`) as quadrature masses at the texel centres: the sources
     of the next chained level. The weights are the midpoint rule in each face's gnomonic
@@ -371,7 +394,11 @@ def _chain_source(acc: np.ndarray, n: int, ext: int, norm: float, step: int):
     chain's weights left 3e-4 per level near the corners, 4e-3 after eleven levels). `step` 2
     keeps every other texel (the blend must stay wide on that grid: at 3.5 texels the
     subsampled chain lost 7e-4 per level near the edges, at 5 it matches `step` 1)."""
-    src = np.zeros(_pj.chain_source_shape(n, _CHAIN_PAD, step), np.float32)
+    shape = _pj.chain_source_shape(n, _CHAIN_PAD, step)
+    if out is None:
+        src = np.zeros(shape, np.float32)
+    else:                               # a zeroed buffer of that shape (`_Pool.take`)
+        src = out
     _pj.chain_source(acc, n, ext, norm, _CHAIN_PAD, _CHAIN_BLEND, FACE_UVA, step, src)
     h = 2.0 / n
     return src, _pj.row_extents(src), step * h, -1.0 + (0.5 - _CHAIN_PAD) * h
@@ -383,14 +410,14 @@ T_LIM_MAX = 1.6     # rows only while the lines in reach stay within |t| ≤ thi
 
 
 def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
-                t_build=0.0, store=None) -> bool:
+                t_build=0.0, pool=None) -> bool:
     """Add Γ, ∂Γ/∂λ of the zonal kernel `kern` (the gather's layout) over the masses `src` (row
     blocks on the grid (h, c0): centres at c0 + i·h) to the bordered accumulator acc by the
     row-factorised passes (_rows_jit): each face's rows and columns as two pencils of great
     circles, with the neighbouring faces' masses on the lines of the same pencils. False
     (nothing added) for λ_d below `lam_min` or beyond T_LIM_MAX. `lines_cache` (a dict) keeps
-    the lines of `src` for the next call with the same source (built out to t_build); `store`
-    (a dict) keeps the float32 buffer of the row sums for the next call."""
+    the lines of `src` for the next call with the same source (built out to t_build); `pool`
+    (a `_Pool`) lends the row sums' buffer and, for lines not kept in `lines_cache`, theirs."""
     lam_d, zcut = float(kern[0]), float(kern[1])
     if lam_d < lam_min:
         return False
@@ -405,7 +432,9 @@ def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
         lines = cached[2]
     else:
         t_b = max(t_lim, t_build) if t_build <= T_LIM_MAX else t_lim
-        lines = _rj.build_lines(src, FACE_UVA, t_b, 0.1)
+        lines = _rj.build_lines(src, FACE_UVA, t_b, 0.1,
+                                None if lines_cache is not None or pool is None
+                                else lambda k, shape: pool.take(("lines", k), shape))
         if lines_cache is not None:
             lines_cache["lines"] = (src, t_b, lines)
     key_off, order, t, m_off, m_ca, m_cb, m_s, m_e, own = lines
@@ -426,11 +455,7 @@ def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
         if a == b:
             continue
         need = (b - a) * _rj.NARR * m1
-        buf = store.get("C") if store is not None else None
-        if buf is None or buf.size < need:
-            buf = np.empty(need, np.float32)
-            if store is not None:
-                store["C"] = buf
+        buf = pool.take("C", (need,)) if pool is not None else np.empty(need, np.float32)
         C = _rj.row_pass1(t[a:b], m_off[a:b + 1], m_ca, m_cb, m_s, m_e, k6, n_out, x0, m1, src,
                           own[a:b], float(grid[1]), float(grid[0]), buf)
         _rj.row_pass2(C, key_off, order, t, k6, ecoef, float(kappa), float(kern[6]),
@@ -505,9 +530,8 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     # work buffers sized for level 0 and reused by every level: fresh pages cost ~3 µs each to
     # fault in (level 0 alone would fault in ~50 MB of accumulator, row sums and prefilter rows)
     m0 = int(res[0]) + 2 * ext
-    acc_store = np.empty(6 * m0 * m0 * 6, np.float32)
-    scratch = np.empty((numba.get_num_threads(), 3 * m0 * m0))
-    row_store = {}
+    pool = _Pool()
+    scratch = pool.take("prefilter", (numba.get_num_threads(), 3 * m0 * m0), np.float64)
     # every level's images carved from one block (one huge-page advised allocation faults in
     # a few hundred pages instead of ~10⁴)
     shapes = []
@@ -525,8 +549,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     del block
     for idx, (lam, n) in enumerate(zip(lams, res)):
         sigma = 1.0 / math.sqrt(lam)
-        acc = acc_store[:6 * (n + 2 * ext) ** 2 * 6].reshape(6, n + 2 * ext, n + 2 * ext, 6)
-        acc.fill(0.0)
+        acc = pool.take("acc", (6, n + 2 * ext, n + 2 * ext, 6), zero=True)
         by_rows = False
         if idx < n_direct:  # the sharpest levels: straight from the map's texels
             for mip, tail in ((dim, s.tail_dim), (brt, t_bright)):
@@ -539,7 +562,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                     # rows' B-spline of the row sums is ~1e-3 off in the tails of a 10⁵ × sun
                     if (mip is dim or bright_rows) and _row_gather(
                             src, grid, kern, n, ext, acc, s.rows_lambda_min,
-                            map_lines if mip is dim else None, t_direct, row_store):
+                            map_lines if mip is dim else None, t_direct, pool):
                         by_rows = True
                     else:
                         _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut,
@@ -549,7 +572,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
             src, ex, h_src, c0 = sources.pop((a, step))
             cos_cut = max(-2.0, 1.0 - kern[1] / kern[0])
             by_rows = _row_gather(src, (h_src, c0), kern, n, ext, acc, s.rows_lambda_min,
-                                  store=row_store)
+                                  pool=pool)
             if not by_rows:
                 _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,
                               kern, h_src, c0)
@@ -576,7 +599,12 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         samples.append(smp)
         for a, step, _ in plan.values():
             if a == idx:
-                sources[(a, step)] = _chain_source(acc, int(n), ext, float(sg_norm(lam)), step)
+                # slots by the level's parity: a source is consumed (popped) by level a + 1 or
+                # a + 2 before level a + 2 makes the next one of the same parity
+                out = pool.take(("source", idx % 2, step),
+                                _pj.chain_source_shape(int(n), _CHAIN_PAD, step), zero=True)
+                sources[(a, step)] = _chain_source(acc, int(n), ext, float(sg_norm(lam)), step,
+                                                   out)
         # keep memory bounded: drop source MIP levels finer than the next level taken from the
         # map needs (chained levels need none)
         later = [j for j in range(idx + 1, len(lams)) if j not in plan]
