@@ -63,8 +63,9 @@ _F4 = np.float32(4.0)
 
 @njit(cache=True, fastmath=True, inline="always")
 def _exponent(z, c1, c2, c3, c4):
-    """z(c1 + c2 z + c3 z² + c4 z³) in Estrin's form: the inner loops here are bound by one
-    lane's dependency chain (exponent → exp → accumulation), not by their operation count."""
+    """z(c1 + c2 z + c3 z² + c4 z³), written in Estrin's form for a short dependency chain (the
+    inner loops here are bound by one lane's exponent → exp → accumulation chain, not by their
+    operation count); fastmath lets LLVM reassociate it, and in `_sample` it emits Horner's."""
     return z * ((c1 + z * c2) + (z * z) * (c3 + z * c4))
 
 
@@ -118,7 +119,7 @@ def build_lines(src, uva, t_lim, min_ca, take=None):
     f·M + i for face f's own row i (M = rows per face), −1 for a neighbour's line.
 
     Two compiled passes (`_lines_count`, `_lines_fill`); the mass arrays come from numpy
-    (huge-page advised: a fresh 4 KB page costs ~3 µs to fault in, and the map's lines are
+    (huge-page advised: a fresh 4 KB page costs 2–3 µs to fault in, and the map's lines are
     ~50 MB at 512²) or from take(name, shape) (float32 buffers the caller reuses)."""
     cand, tc, cnt = _lines_count(src, uva, t_lim, min_ca)
     n_mass = int(cnt.sum())

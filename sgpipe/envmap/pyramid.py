@@ -358,7 +358,7 @@ _CHAIN_BLEND = 5.0  # half-width of the faces' partition-of-unity blend, in texe
 
 class _Pool:
     """Work buffers of one build, kept and reused from level to level (grown when a level needs
-    more): fresh pages cost ~2 µs per 4 KB to fault in, and the levels' accumulators, row sums,
+    more): fresh pages cost 2–3 µs per 4 KB to fault in, and the levels' accumulators, row sums,
     chain sources and lines add up to several hundred MB over a 512² build. A caller takes a
     slot only while the previous taker of the same slot is done with it."""
 
@@ -527,8 +527,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     t_direct = max(_rj.reach_t(float(lams[i]), 0.5 * s.tail_dim ** 2, int(res[i]), ext)
                    for i in range(n_direct))
     sources = {}            # (a, step) -> level a as quadrature masses (`_chain_source`)
-    # work buffers sized for level 0 and reused by every level: fresh pages cost ~3 µs each to
-    # fault in (level 0 alone would fault in ~50 MB of accumulator, row sums and prefilter rows)
+    # work buffers kept and reused by every level (`_Pool`)
     m0 = int(res[0]) + 2 * ext
     pool = _Pool()
     scratch = pool.take("prefilter", (numba.get_num_threads(), 3 * m0 * m0), np.float64)
@@ -585,7 +584,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                 src, ex = mip.source(sigma, k_src)
                 cos_cut = max(-2.0, 1.0 - tail * tail / (2.0 * lam))
                 # small levels: wider tiles (fewer, longer passes over the broad kernel's
-                # source rows; 4 → 8 halves these levels' 2-D gathers)
+                # source rows; 4 → 8: these levels' 2-D gathers take ~⅓ less time)
                 tile = s.tile if n > 32 else 2 * s.tile
                 _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, tile, acc,
                               _NO_KERN, *_map_grid(src.shape[1]))
