@@ -410,14 +410,15 @@ T_LIM_MAX = 1.6     # rows only while the lines in reach stay within |t| ≤ thi
 
 
 def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
-                t_build=0.0, pool=None) -> bool:
+                t_build=0.0, pool=None, slot="lines") -> bool:
     """Add Γ, ∂Γ/∂λ of the zonal kernel `kern` (the gather's layout) over the masses `src` (row
     blocks on the grid (h, c0): centres at c0 + i·h) to the bordered accumulator acc by the
     row-factorised passes (_rows_jit): each face's rows and columns as two pencils of great
     circles, with the neighbouring faces' masses on the lines of the same pencils. False
     (nothing added) for λ_d below `lam_min` or beyond T_LIM_MAX. `lines_cache` (a dict) keeps
     the lines of `src` for the next call with the same source (built out to t_build); `pool`
-    (a `_Pool`) lends the row sums' buffer and, for lines not kept in `lines_cache`, theirs."""
+    (a `_Pool`) lends the buffers of the row sums and of the lines (pool slot `slot`: the map's
+    cached lines and the chained levels' share one, used one after the other)."""
     lam_d, zcut = float(kern[0]), float(kern[1])
     if lam_d < lam_min:
         return False
@@ -433,8 +434,8 @@ def _row_gather(src, grid, kern, n_out, ext, acc, lam_min, lines_cache=None,
     else:
         t_b = max(t_lim, t_build) if t_build <= T_LIM_MAX else t_lim
         lines = _rj.build_lines(src, FACE_UVA, t_b, 0.1,
-                                None if lines_cache is not None or pool is None
-                                else lambda k, shape: pool.take(("lines", k), shape))
+                                None if pool is None
+                                else lambda k, shape: pool.take((slot, k), shape))
         if lines_cache is not None:
             lines_cache["lines"] = (src, t_b, lines)
     key_off, order, t, m_off, m_ca, m_cb, m_s, m_e, own = lines
@@ -561,7 +562,8 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
                     # rows' B-spline of the row sums is ~1e-3 off in the tails of a 10⁵ × sun
                     if (mip is dim or bright_rows) and _row_gather(
                             src, grid, kern, n, ext, acc, s.rows_lambda_min,
-                            map_lines if mip is dim else None, t_direct, pool):
+                            map_lines if mip is dim else None, t_direct, pool,
+                            "lines" if mip is dim else "bright lines"):
                         by_rows = True
                     else:
                         _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut,
@@ -591,7 +593,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         vals, slps, smp = out_views[idx]
         row_levels += by_rows
         if idx == n_direct - 1:
-            map_lines.clear()           # (memory: the chained levels have their own sources)
+            map_lines.clear()           # (the chained levels reuse their pool slot)
         _pj.finish_level(acc, float(lam), float(sg_norm(lam)), _EXTRA, vals, slps, smp, scratch)
         values.append(vals)
         slopes.append(slps)
