@@ -377,6 +377,13 @@ class _Pool:
             out.fill(0)
         return out
 
+    def give(self, key, arr: np.ndarray) -> None:
+        """Adopt a contiguous array its owner is done with as slot `key`'s buffer (if larger)."""
+        flat = arr.reshape(-1)
+        buf = self.bufs.get(key)
+        if buf is None or (buf.dtype == flat.dtype and buf.size < flat.size):
+            self.bufs[key] = flat
+
 
 def _map_grid(n: int) -> tuple[float, float]:
     """(h, c0) of a plain cubemap face grid: centres at c0 + i·h."""
@@ -531,6 +538,16 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     # work buffers kept and reused by every level (`_Pool`)
     m0 = int(res[0]) + 2 * ext
     pool = _Pool()
+    # chain sources: a source is consumed (popped) by level a + 1 or a + 2 before level a + 2
+    # makes the next one of the same parity; with steps from b − 1 only, one slot is enough
+    two_slots = any(b - a == 2 for b, (a, _, _) in plan.items())
+
+    def source_key(level, step):
+        return ("source", level % 2 if two_slots else 0, step)
+
+    map_masses = dim.levels[0]
+    # the levels after the direct ones taken from the map (the broad ones)
+    later_map = [j for j in range(n_direct, len(lams)) if j not in plan]
     scratch = pool.take("prefilter", (numba.get_num_threads(), 3 * m0 * m0), np.float64)
     # every level's images carved from one block (one huge-page advised allocation faults in
     # a few hundred pages instead of ~10⁴)
@@ -594,15 +611,23 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         row_levels += by_rows
         if idx == n_direct - 1:
             map_lines.clear()           # (the chained levels reuse their pool slot)
+            # the map's masses are done with: make the moment MIP levels the broad levels need
+            # now, then hand the masses' buffer (44 MB at 512²) to the next chain source
+            if later_map:
+                dim.release_below(dim.pick(1.0 / math.sqrt(float(lams[later_map[0]])),
+                                           s.src_texels_per_sigma))
+            if dim.levels[0] is None:
+                for a, step, _ in plan.values():
+                    if a == idx:
+                        pool.give(source_key(idx, step), map_masses)
+            del map_masses
         _pj.finish_level(acc, float(lam), float(sg_norm(lam)), _EXTRA, vals, slps, smp, scratch)
         values.append(vals)
         slopes.append(slps)
         samples.append(smp)
         for a, step, _ in plan.values():
             if a == idx:
-                # slots by the level's parity: a source is consumed (popped) by level a + 1 or
-                # a + 2 before level a + 2 makes the next one of the same parity
-                out = pool.take(("source", idx % 2, step),
+                out = pool.take(source_key(idx, step),
                                 _pj.chain_source_shape(int(n), _CHAIN_PAD, step), zero=True)
                 sources[(a, step)] = _chain_source(acc, int(n), ext, float(sg_norm(lam)), step,
                                                    out)
