@@ -377,12 +377,11 @@ class _Pool:
             out.fill(0)
         return out
 
-    def give(self, key, arr: np.ndarray) -> None:
-        """Adopt a contiguous array its owner is done with as slot `key`'s buffer (if larger)."""
-        flat = arr.reshape(-1)
-        buf = self.bufs.get(key)
-        if buf is None or (buf.dtype == flat.dtype and buf.size < flat.size):
-            self.bufs[key] = flat
+    def drop(self, *names) -> None:
+        """Release the slots named (a key, or the first element of a tuple key)."""
+        for key in list(self.bufs):
+            if key in names or (isinstance(key, tuple) and key[0] in names):
+                del self.bufs[key]
 
 
 def _map_grid(n: int) -> tuple[float, float]:
@@ -545,9 +544,6 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
     def source_key(level, step):
         return ("source", level % 2 if two_slots else 0, step)
 
-    map_masses = dim.levels[0]
-    # the levels after the direct ones taken from the map (the broad ones)
-    later_map = [j for j in range(n_direct, len(lams)) if j not in plan]
     scratch = pool.take("prefilter", (numba.get_num_threads(), 3 * m0 * m0), np.float64)
     # every level's images carved from one block (one huge-page advised allocation faults in
     # a few hundred pages instead of ~10⁴)
@@ -592,10 +588,12 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
             by_rows = _row_gather(src, (h_src, c0), kern, n, ext, acc, s.rows_lambda_min,
                                   pool=pool)
             if not by_rows:
+                pool.drop("lines", "C")     # (broader chain steps are not summed by rows)
                 _pj.sg_gather(src, ex, FACE_UVA, int(n), ext, float(lam), cos_cut, s.tile, acc,
                               kern, h_src, c0)
             acc *= amp
         else:               # broad levels: from the moment MIP of the map
+            pool.drop("lines", "C", "source")
             for mip, k_src, tail in ((dim, s.src_texels_per_sigma, s.tail_dim),
                                      (brt, s.bright_src_texels_per_sigma, t_bright)):
                 if mip is None:
@@ -611,16 +609,6 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         row_levels += by_rows
         if idx == n_direct - 1:
             map_lines.clear()           # (the chained levels reuse their pool slot)
-            # the map's masses are done with: make the moment MIP levels the broad levels need
-            # now, then hand the masses' buffer (44 MB at 512²) to the next chain source
-            if later_map:
-                dim.release_below(dim.pick(1.0 / math.sqrt(float(lams[later_map[0]])),
-                                           s.src_texels_per_sigma))
-            if dim.levels[0] is None:
-                for a, step, _ in plan.values():
-                    if a == idx:
-                        pool.give(source_key(idx, step), map_masses)
-            del map_masses
         _pj.finish_level(acc, float(lam), float(sg_norm(lam)), _EXTRA, vals, slps, smp, scratch)
         values.append(vals)
         slopes.append(slps)
