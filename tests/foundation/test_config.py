@@ -56,6 +56,19 @@ def test_bad_values_name_file_key_and_line(tmp_path, text, key, line, msg):
     assert one.startswith(f"{p}:{line}: {key}: ")
 
 
+def test_cross_field_rule_names_the_key(tmp_path):
+    """A rule checked after the types (EnvmapSection.validate): 0 < k < 1 texels per σ."""
+    (tmp_path / "env.exr").write_bytes(b"")
+    p = write(tmp_path, "envmap:\n  environment: env.exr\n  pyramid_texels_per_sigma: 0.5\n")
+    with pytest.raises(BadInput) as e:
+        load_config(p)
+    assert e.value.key == "envmap.pyramid_texels_per_sigma"
+    assert "0 (automatic) or >= 1, got 0.5" in e.value.one_line()
+    for ok in ("0", "1.5"):
+        q = write(tmp_path, f"envmap:\n  environment: env.exr\n  pyramid_texels_per_sigma: {ok}\n")
+        assert load_config(q).envmap.pyramid_texels_per_sigma == float(ok)
+
+
 def test_malformed_yaml_and_missing_file(tmp_path):
     with pytest.raises(BadInput, match="malformed YAML") as e:
         load_config(write(tmp_path, "name: [unclosed\n"))
