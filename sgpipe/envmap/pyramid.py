@@ -8,9 +8,11 @@ bordered cubemap (see docs/ARTIFACTS.md, `envmap/`).
 Build: the cubemap texels become point masses (E = L·Ω at the texel centre), split in a "dim"
 layer (bounded contrast: short kernel tails) and a sparse "bright" layer (sun, lamps: long
 tails; kept as exact points beside the levels when small). Levels 0 and 1 are computed straight
-from the masses, each level below them (λ ≥ `chain_lambda_min`) from the samples of the level two
-above with the exact zonal difference kernel (sgkernel.py) and a smooth quadrature across the
-cube edges (`_chain_source`). Sharp kernels are summed row by row (`_row_gather`, _rows_jit.py:
+from the masses, each level below them (λ ≥ `chain_lambda_min`) from the samples of a sharper
+level (two above on every other texel, or one above on every texel when the levels are stored
+at 1.5 texels per σ: the chain plan in `build_pyramid`) with the exact zonal difference kernel
+(sgkernel.py) and a smooth quadrature across the cube edges (`_chain_source`). The storage
+density follows the content (`auto_texels_per_sigma`). Sharp kernels are summed row by row (`_row_gather`, _rows_jit.py:
 every cube-face row is a great circle, so a zonal kernel factorises into a sum along each row
 and a sum over the rows in reach: ~10–30 row taps per output instead of ~100–800 texels);
 broader ones, and a sun's bright layer at the direct levels, by the 2-D gather
