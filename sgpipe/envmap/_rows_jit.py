@@ -132,6 +132,20 @@ def build_lines(src, uva, t_lim, min_ca, take=None):
     return _lines_fill(src, uva, cand, tc, cnt, min_ca, m_ca, m_cb, m_s, m_e)
 
 
+@njit(cache=True, inline="always")
+def _line_mass(src, g, fam, i, j, A, min_ca):
+    """Mass j of candidate line (g, fam, i) (`_candidates`): (kept, cx, cy, cz, c·A, energies);
+    kept unless its energy is zero or c·A ≤ min_ca (out of any sharp kernel's reach). The one
+    rule `_lines_count` counts by and `_lines_fill` writes by."""
+    a_ = i if fam == 0 else j
+    b_ = j if fam == 0 else i
+    e0, e1, e2 = src[g, a_, E0, b_], src[g, a_, E0 + 1, b_], src[g, a_, E0 + 2, b_]
+    cx, cy, cz = src[g, a_, CX, b_], src[g, a_, CX + 1, b_], src[g, a_, CX + 2, b_]
+    ca_ = cx * A[0] + cy * A[1] + cz * A[2]
+    kept = not (e0 == 0.0 and e1 == 0.0 and e2 == 0.0) and ca_ > min_ca
+    return kept, cx, cy, cz, ca_, e0, e1, e2
+
+
 @njit(cache=True, parallel=True)
 def _lines_count(src, uva, t_lim, min_ca):
     """Candidate lines (`_candidates`), their frame coordinate t and mass count (0: none or
@@ -147,14 +161,8 @@ def _lines_count(src, uva, t_lim, min_ca):
         tl = 1e30
         c = 0
         for j in range(m):
-            a_ = i if fam == 0 else j
-            b_ = j if fam == 0 else i
-            if (src[g, a_, E0, b_] == 0.0 and src[g, a_, E0 + 1, b_] == 0.0
-                    and src[g, a_, E0 + 2, b_] == 0.0):
-                continue
-            cx, cy, cz = src[g, a_, CX, b_], src[g, a_, CX + 1, b_], src[g, a_, CX + 2, b_]
-            ca_ = cx * A[0] + cy * A[1] + cz * A[2]
-            if ca_ <= min_ca:
+            kept, cx, cy, cz, ca_, _, _, _ = _line_mass(src, g, fam, i, j, A, min_ca)
+            if not kept:
                 continue
             if c == 0:
                 # the line's frame coordinate (the same for every point of its plane)
@@ -197,14 +205,8 @@ def _lines_fill(src, uva, cand, tc, cnt, min_ca, m_ca, m_cb, m_s, m_e):
         sq = math.sqrt(1.0 + t[ln] * t[ln])
         mi = m_off[ln]
         for j in range(m):
-            a_ = i if fam == 0 else j
-            b_ = j if fam == 0 else i
-            e0, e1, e2 = src[g, a_, E0, b_], src[g, a_, E0 + 1, b_], src[g, a_, E0 + 2, b_]
-            if e0 == 0.0 and e1 == 0.0 and e2 == 0.0:
-                continue
-            cx, cy, cz = src[g, a_, CX, b_], src[g, a_, CX + 1, b_], src[g, a_, CX + 2, b_]
-            ca_ = cx * A[0] + cy * A[1] + cz * A[2]
-            if ca_ <= min_ca:
+            kept, cx, cy, cz, ca_, e0, e1, e2 = _line_mass(src, g, fam, i, j, A, min_ca)
+            if not kept:
                 continue
             cu = cx * U[0] + cy * U[1] + cz * U[2]
             m_ca[mi] = cu
