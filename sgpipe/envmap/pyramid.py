@@ -85,10 +85,9 @@ class PyramidSettings:
                                          # integrand at >= this many texels per its width
     tail_chain: float = 4.5              # difference kernel cut at this many of its σ
     direct_levels: int = 2               # the sharpest levels come straight from the map's
-                                         # texels (level 1 chained from level 0 would need a
-                                         # row kernel of 1.08 output texels per σ: too coarse
-                                         # for the rows' B-spline; the SG has 2, a ratio-2
-                                         # chain step 2.8)
+                                         # texels (1, level 1 chained from level 0 by rows:
+                                         # as accurate on tests/envmap and the real sky_sun at
+                                         # 512², build time within noise)
     bright_rows_max_contrast: float = 1e3  # a bright layer up to this × the median (lamps)
                                          # is summed by rows too at the direct levels; above
                                          # (a sun) the 2-D gather (real sky_sun 512², 9.7·10⁴:
@@ -611,6 +610,7 @@ def build_pyramid(cube: np.ndarray, settings: PyramidSettings | None = None) -> 
         row_levels += by_rows
         if idx == n_direct - 1:
             map_lines.clear()           # (the chained levels reuse their pool slot)
+            pool.drop("bright lines")   # (only the direct levels sum a bright layer by rows)
         _pj.finish_level(acc, float(lam), float(sg_norm(lam)), _EXTRA, vals, slps, smp, scratch)
         values.append(vals)
         slopes.append(slps)
