@@ -4,6 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 SGPIPE := $(VENV)/bin/sgpipe
 STAMP  := $(VENV)/.sgpipe-installed
+BENCH_STAMP := $(VENV)/.sgpipe-bench-installed
 OUT    ?= out
 
 .PHONY: setup opencl demo test bench figures samples doctor clean
@@ -13,6 +14,11 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'
 	touch $(STAMP)
+
+# the benchmarks' baselines (scikit-learn, ...): the `bench` extra, on top of the base install
+$(BENCH_STAMP): $(STAMP)
+	$(PY) -m pip install -q -e '.[test,bench]'
+	touch $(BENCH_STAMP)
 
 setup: $(STAMP) opencl
 
@@ -32,7 +38,7 @@ test: setup
 	$(PY) -m pytest -q -n 2 --dist loadfile
 
 ## speed and memory targets, printed as ratios against baselines measured in the same run
-bench: setup
+bench: setup $(BENCH_STAMP)
 	$(PY) -m benchmarks
 
 ## paper 000's experiment: docs/RESULTS.md and contact sheets
