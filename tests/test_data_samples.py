@@ -87,6 +87,54 @@ def test_regenerated_files_are_byte_identical(regenerated):
     assert differ == []
 
 
+# An ulp of difference in a transcendental function (numpy's sin/cos/exp differ between CPU
+# families) must not move a written value across a rounding boundary. The generators use only
+# correctly rounded arithmetic otherwise, so this margin makes the bytes the same on any CPU.
+ULP_MARGIN = 1e-13   # relative; a numpy sin/cos/exp result is within a few 1e-16 of exact
+
+
+def _decimal_margin(x, nd=6):
+    """Distance of x·10^nd from the nearest rounding boundary (k + 0.5), relative to |x|."""
+    y = np.asarray(x, np.float64).ravel() * 10.0 ** nd
+    d = np.abs(np.abs(y - np.floor(y)) - 0.5)
+    return d / np.maximum(np.abs(y), 1.0)
+
+
+def _float_margin(x, dtype):
+    """Relative distance of x from the nearest midpoint between two `dtype` values."""
+    x = np.asarray(x, np.float64).ravel()
+    x = x[x != 0]
+    r = x.astype(dtype).astype(np.float64)
+    up = np.nextafter(r.astype(dtype), np.array(np.inf, dtype)).astype(np.float64)
+    dn = np.nextafter(r.astype(dtype), np.array(-np.inf, dtype)).astype(np.float64)
+    mid = np.where(x >= r, (r + up) / 2, (r + dn) / 2)
+    return np.abs(x - mid) / np.abs(x)
+
+
+def test_written_values_are_far_from_rounding_boundaries():
+    gen = _load_generator()
+    meshes, env = gen.meshes, gen.env
+    for name, arrays in {"sphere.obj": meshes.uv_sphere(), "teapot.obj": meshes.teapot()[:3],
+                         "floor.obj": meshes.floor_plane()}.items():
+        for a in arrays:
+            if np.issubdtype(np.asarray(a).dtype, np.floating):
+                assert _decimal_margin(a).min() > ULP_MARGIN, name
+    h, w = gen.ENV_SIZE
+    sky, sky_sun = env.make_sky_sun(h, w)
+    studio, _ = env.make_studio(h, w)
+    for name, img in {"sky_sun.exr": sky_sun, "studio.exr": studio}.items():
+        assert _float_margin(img, np.float16).min() > ULP_MARGIN, name
+    height, normals = gen.make_normal_map()
+    assert _float_margin(height, np.float32).min() > ULP_MARGIN, "bump_height.exr"
+    assert _float_margin(normals * 0.5 + 0.5, np.float16).min() > ULP_MARGIN, "normal_map.exr"
+    assert _decimal_margin((normals * 0.5 + 0.5) * 255.0, 0).min() > ULP_MARGIN, "normal_map.png"
+
+
+def test_obj_samples_have_no_negative_zeros():
+    for name in ("sphere.obj", "teapot.obj", "floor.obj"):
+        assert "-0.000000" not in (SAMPLES / name).read_text(), name
+
+
 def test_total_size_under_10_mb():
     assert sum(p.stat().st_size for p in SAMPLES.iterdir()) < 10 * 1024 * 1024
 

@@ -18,6 +18,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import sample_envmaps as env  # noqa: E402
+from canonical import fsum_channels, normalize3  # noqa: E402
 import sample_meshes as meshes  # noqa: E402
 import sample_readme  # noqa: E402
 from sgpipe.io import read_exr, write_exr, write_png  # noqa: E402
@@ -64,7 +65,7 @@ def make_normal_map(res: int = NORMAL_MAP_SIZE):
     u, v = np.meshgrid(c, c[::-1], indexing="xy")
     h, hu, hv = bump_height(u, v)
     n = np.stack([-hu, -hv, np.ones_like(h)], -1)
-    return h, n / np.linalg.norm(n, axis=-1, keepdims=True)
+    return h, normalize3(n)
 
 
 def encode_normals_8bit(n: np.ndarray) -> np.ndarray:
@@ -77,8 +78,8 @@ def encode_normals_8bit(n: np.ndarray) -> np.ndarray:
 
 def _r(x, nd: int = 9):
     """Round floats (scalars or arrays) for the JSON sidecar; keeps the file readable."""
-    a = np.asarray(x, np.float64)
-    return float(np.round(a, nd)) if a.ndim == 0 else [float(y) for y in np.round(a, nd).ravel()]
+    a = np.round(np.asarray(x, np.float64), nd) + 0.0   # + 0.0: no negative zeros
+    return float(a) if a.ndim == 0 else [float(y) for y in a.ravel()]
 
 
 def map_integrals(img: np.ndarray) -> dict:
@@ -86,8 +87,8 @@ def map_integrals(img: np.ndarray) -> dict:
     max(cos theta, 0) for the irradiance at normal +Y), per channel."""
     h, w = img.shape[:2]
     return {
-        "power_rgb": _r((img * env.texel_solid_angles(h, w)[..., None]).sum((0, 1))),
-        "irradiance_up_rgb": _r((img * env.texel_cos_weights(h, w)[..., None]).sum((0, 1))),
+        "power_rgb": _r(fsum_channels(img * env.texel_solid_angles(h, w)[..., None])),
+        "irradiance_up_rgb": _r(fsum_channels(img * env.texel_cos_weights(h, w)[..., None])),
     }
 
 
@@ -124,11 +125,11 @@ def make_envmaps(out: Path) -> dict:
             "radiance_rgb": _r(g["radiance_rgb"]),
             "power_rgb": _r(g["power_rgb"]),
             "irradiance_facing_rgb": _r(g["irradiance_facing_rgb"]),
-            "power_from_texels_rgb": _r(((stored - sky_q) * omega).sum((0, 1))),
+            "power_from_texels_rgb": _r(fsum_channels((stored - sky_q) * omega)),
             "note": "added on top of the sky; power = radiance * solid angle",
         },
         "sky": {**{k: list(v) if isinstance(v, tuple) else v for k, v in env.SKY.items()},
-                "power_rgb": _r((sky_q * omega).sum((0, 1)))},
+                "power_rgb": _r(fsum_channels(sky_q * omega))},
     }}
     studio, parts = env.make_studio(h, w)
     stored = _write_env(out, "studio", studio, "softboxes on a dim background")
@@ -141,7 +142,7 @@ def make_envmaps(out: Path) -> dict:
                       "center": _r(c), "width_axis": _r(e1), "height_axis": _r(e2),
                       "solid_angle_sr": _r(om, 12),
                       "power_rgb": _r(om * np.asarray(box["radiance_rgb"])),
-                      "power_supersampled_rgb": _r((part * omega).sum((0, 1)))})
+                      "power_supersampled_rgb": _r(fsum_channels(part * omega))})
     analytic = 4.0 * np.pi * bg + sum(env.softbox_solid_angle(b) * np.asarray(b["radiance_rgb"])
                                       for b in env.SOFTBOXES)
     info["studio.exr"] = {

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from canonical import cross3, dot3
+
 
 def direction(theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
     """Unit direction for polar angle theta (from +Y) and azimuth phi (GUIDE lat-long)."""
@@ -88,7 +90,7 @@ def sky_radiance(d: np.ndarray) -> np.ndarray:
     y = d[..., 1:2]
     zen, hor, gnd = (np.asarray(SKY[k]) for k in ("zenith_rgb", "horizon_rgb", "ground_rgb"))
     wgt = (1.0 - np.clip(y, 0.0, 1.0)) ** SKY["horizon_exponent"]
-    glow = (0.5 * (1.0 + d @ sun_geometry()["direction"]))[..., None] ** SKY["glow_power"]
+    glow = (0.5 * (1.0 + dot3(d, sun_geometry()["direction"])))[..., None] ** SKY["glow_power"]
     sky = (zen + (hor - zen) * wgt) * (1.0 + SKY["glow_gain"] * glow)
     ground = gnd * (1.0 + 0.3 * np.clip(y, -1.0, 0.0))
     return np.where(y >= 0.0, sky, ground)
@@ -119,10 +121,10 @@ def sun_coverage(h: int, w: int, n: int = 64) -> np.ndarray:
     s, cos_r = g["direction"], g["cos_radius"]
     centres = texel_centre_dirs(h, w)
     margin = np.arccos(np.clip(cos_r, -1, 1)) + 2.0 * np.pi / min(h, w / 2) * 2.0
-    rows, cols = np.nonzero(centres @ s > np.cos(margin))
+    rows, cols = np.nonzero(dot3(centres, s) > np.cos(margin))
     cov = np.zeros((h, w))
     d = strata_dirs(rows.astype(float), cols.astype(float), h, w, n)
-    cov[rows, cols] = (d @ s > cos_r).mean(axis=1)
+    cov[rows, cols] = (dot3(d, s) > cos_r).mean(axis=1)
     return cov
 
 
@@ -154,7 +156,7 @@ def softbox_frame(box: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     phi = np.radians(box["phi_deg"])
     c = direction(theta, phi)
     e1 = np.array([np.cos(phi), 0.0, np.sin(phi)])
-    return c, e1, np.cross(c, e1)
+    return c, e1, cross3(c, e1)
 
 
 def softbox_solid_angle(box: dict) -> float:
@@ -170,7 +172,7 @@ def softbox_mask(box: dict, d: np.ndarray) -> np.ndarray:
     c, e1, e2 = softbox_frame(box)
     a = np.tan(np.radians(box["half_width_deg"]))
     b = np.tan(np.radians(box["half_height_deg"]))
-    dc, d1, d2 = d @ c, d @ e1, d @ e2
+    dc, d1, d2 = dot3(d, c), dot3(d, e1), dot3(d, e2)
     return ((dc > 0) & (np.abs(d1) <= a * dc) & (np.abs(d2) <= b * dc)).astype(np.float64)
 
 

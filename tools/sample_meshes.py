@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 import teapot_data
+from canonical import cross3, decimals, norm3, normalize3
 
 # ---------------------------------------------------------------- OBJ writer
 
@@ -20,19 +21,20 @@ import teapot_data
 def write_obj(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, *,
               normals: np.ndarray | None = None, uvs: np.ndarray | None = None,
               header: str = "") -> Path:
-    """Write a triangle mesh with per-vertex normals/UVs sharing the vertex index; fixed '%.6f'
-    formatting and '\\n' line ends make the bytes reproducible."""
+    """Write a triangle mesh with per-vertex normals/UVs sharing the vertex index; values rounded
+    to 6 decimals without negative zeros, fixed '%.6f' formatting and '\\n' line ends make the
+    bytes reproducible on any CPU."""
     from sgpipe.io import atomic_path
 
-    v = np.asarray(vertices, np.float64)
+    v = decimals(vertices)
     f = np.asarray(faces, np.int64) + 1
     lines = [f"# {line}" for line in header.strip().splitlines()]
     lines.append(f"# vertices {len(v)} faces {len(f)}")
     lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in v]
     if uvs is not None:
-        lines += [f"vt {s:.6f} {t:.6f}" for s, t in np.asarray(uvs, np.float64)]
+        lines += [f"vt {s:.6f} {t:.6f}" for s, t in decimals(uvs)]
     if normals is not None:
-        lines += [f"vn {x:.6f} {y:.6f} {z:.6f}" for x, y, z in np.asarray(normals, np.float64)]
+        lines += [f"vn {x:.6f} {y:.6f} {z:.6f}" for x, y, z in decimals(normals)]
     if uvs is not None and normals is not None:
         lines += [f"f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}" for a, b, c in f]
     elif normals is not None:
@@ -45,10 +47,6 @@ def write_obj(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, 
     with atomic_path(path) as tmp:
         tmp.write_bytes(("\n".join(lines) + "\n").encode("ascii"))
     return path
-
-
-def _normalize(x: np.ndarray) -> np.ndarray:
-    return x / np.linalg.norm(x, axis=-1, keepdims=True)
 
 
 # ---------------------------------------------------------------- sphere
@@ -128,10 +126,15 @@ def _bernstein(t: np.ndarray):
 def _eval_patch(net: np.ndarray, t: np.ndarray):
     """Bicubic Bezier patch on the grid t x t: points, dP/du, dP/dv, each (n, n, 3)."""
     b, db = _bernstein(t)
-    p = np.einsum("ui,vj,ijk->uvk", b, b, net)
-    pu = np.einsum("ui,vj,ijk->uvk", db, b, net)
-    pv = np.einsum("ui,vj,ijk->uvk", b, db, net)
-    return p, pu, pv
+
+    def tensor(bu, bv):
+        # Σ_i Σ_j bu[u, i] bv[v, j] net[i, j] term by term (einsum's order depends on the CPU).
+        out = np.zeros((len(t), len(t), 3))
+        for i in range(4):
+            for j in range(4):
+                out = out + (bu[:, i, None] * bv[None, :, j])[..., None] * net[i, j]
+        return out
+    return tensor(b, b), tensor(db, b), tensor(b, db)
 
 
 def _patch_normals(net: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -139,16 +142,16 @@ def _patch_normals(net: np.ndarray, t: np.ndarray) -> np.ndarray:
     Where that vanishes (collapsed pole rows of the lid knob and the bottom) take the limit
     from a point a little way into the patch; the pole copies are averaged after welding."""
     _, pu, pv = _eval_patch(net, t)
-    n = np.cross(pv, pu)
-    length = np.linalg.norm(n, axis=-1)
+    n = cross3(pv, pu)
+    length = norm3(n)
     bad = length < 1e-9 * max(1.0, float(length.max()))
     if bad.any():
         eps = 1e-4
         shifted = np.where(t < 0.5, t + eps, t - eps)
         _, pu2, pv2 = _eval_patch(net, shifted)
-        n2 = np.cross(pv2, pu2)
+        n2 = cross3(pv2, pu2)
         n = np.where(bad[..., None], n2, n)
-    return _normalize(n)
+    return normalize3(n)
 
 
 def teapot(n: int = 18, *, quantum: float = 1e-7):
@@ -193,17 +196,22 @@ def teapot(n: int = 18, *, quantum: float = 1e-7):
     faces = inverse[f]
     faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2])
                   & (faces[:, 0] != faces[:, 2])]
-    normals = _normalize(acc)
+    normals = normalize3(acc)
     on_axis = np.hypot(verts[:, 0], verts[:, 1]) < 1e-9
     normals[on_axis] = np.array([0.0, 0.0, 1.0]) * np.sign(normals[on_axis, 2:3])
     # Newell Z-up -> Y-up: rotation by -90 degrees about X, (x, y, z) -> (x, z, -y).
-    rot = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
-    verts, normals = verts @ rot.T, normals @ rot.T
+    # A permutation with one sign flip, applied exactly (a matmul's rounding and the sign of
+    # its zeros depend on the BLAS kernel).
+    def z_up_to_y_up(a):
+        return np.stack([a[:, 0], a[:, 2], -a[:, 1]], -1)
+    verts, normals = z_up_to_y_up(verts), z_up_to_y_up(normals)
     lo, hi = verts.min(0), verts.max(0)
     centre = np.array([(lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2])
     verts = verts - centre
     height = verts[:, 1].max()
-    scale = 1.0 / np.linalg.norm(verts - [0.0, height / 2, 0.0], axis=1).max()
+    scale = 1.0 / norm3(verts - [0.0, height / 2, 0.0]).max()
     verts = verts * scale
-    info = {"patch_grid": n, "newell_offset": (centre @ rot).tolist(), "scale": float(scale)}
+    # Newell's frame of the offset: (x, y, z) -> (x, -z, y) undoes the rotation above.
+    offset = [float(centre[0]), float(-centre[2]) + 0.0, float(centre[1])]
+    info = {"patch_grid": n, "newell_offset": offset, "scale": float(scale)}
     return verts, faces, normals, info
