@@ -73,7 +73,7 @@ def _reset_peak() -> bool:
 def main() -> int:
     from sgpipe.core.maps import cubemap_solid_angles
     from sgpipe.envmap._cube_jit import cube_texel_dirs_jit, face_dir, FACE_UVA
-    from sgpipe.envmap.pyramid import build_pyramid, sg_norm
+    from sgpipe.envmap.pyramid import build_pyramid
 
     from numba import get_num_threads
     build_pyramid(sky_sun_cube(32))                      # compile outside the timing

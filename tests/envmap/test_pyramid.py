@@ -2,7 +2,9 @@
 import numpy as np
 import pytest
 
-from sgpipe.envmap.pyramid import PyramidSettings, build_pyramid, pyramid_levels, sg_norm
+from sgpipe.core.sg import sg_integral
+from sgpipe.core.vmf import mean_resultant_length
+from sgpipe.envmap.pyramid import PyramidSettings, build_pyramid, pyramid_levels
 
 from .envmap_helpers import boxes_cube, brute_gamma, probe_directions, sky_sun_cube
 
@@ -91,7 +93,7 @@ def test_white_furnace_every_lambda():
         v = pyr.lookup(d, lam, normalized=True)
         # a constant map stays constant up to the texel quadrature error (2 texels per σ at λ_0)
         np.testing.assert_allclose(v, 1.0, rtol=5e-3, err_msg=f"λ={lam}")
-        np.testing.assert_allclose(pyr.lookup(d[:3], lam), sg_norm(lam) * v[:3], rtol=1e-12)
+        np.testing.assert_allclose(pyr.lookup(d[:3], lam), sg_integral(lam, 1.0) * v[:3], rtol=1e-12)
 
 
 def test_lookup_continuous_across_seams(sky_sun):
@@ -166,7 +168,6 @@ def test_sharper_than_level_0_extrapolates_towards_the_map():
     λ_r = 1.5 N² instead of clamping to level 0. For L(d) = c + g·d the exact normalised
     convolution is c + A(λ) g·p at every λ (measured: ≤ 4.5e-3 vs the clamp's 1.2e-2)."""
     from sgpipe.core.maps import cubemap_texel_dirs
-    from sgpipe.envmap.pyramid import mean_resultant
     g = np.array([0.6, -0.3, 0.4])
     N = 32
     cube = 1.0 + cubemap_texel_dirs(N) @ g
@@ -177,11 +178,11 @@ def test_sharper_than_level_0_extrapolates_towards_the_map():
     assert pyr.raw is not None
     # the floor: level 0's own error at λ_0 and the bilinear map's (gnomonic grid) error
     floor = max(np.abs(pyr.lookup(d, lam0, normalized=True)[:, 0]
-                       - 1.0 - mean_resultant(lam0) * (d @ g)).max(),
+                       - 1.0 - mean_resultant_length(lam0) * (d @ g)).max(),
                 np.abs(pyr.lookup(d, 1e12, normalized=True)[:, 0] - 1.0 - d @ g).max())
     assert floor < 4e-3
     for lam in (1.5 * lam0, 4 * lam0, 30 * lam0, 1e3 * lam0):
-        exact = 1.0 + mean_resultant(lam) * (d @ g)
+        exact = 1.0 + mean_resultant_length(lam) * (d @ g)
         got = pyr.lookup(d, lam, normalized=True)[:, 0]
         clamped = pyr.lookup(d, lam0, normalized=True)[:, 0]
         err, err_clamp = np.abs(got - exact).max(), np.abs(clamped - exact).max()

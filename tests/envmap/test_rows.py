@@ -1,23 +1,29 @@
-"""The row-factorised gather of the sharp Γ_L levels (_rows_jit, pyramid._row_gather) against the
-2-D sum over the same masses (`_pyramid_jit.sg_gather`, kernel cut further out), seams and
-corners included."""
+"""The row-factorised gather of the sharp Γ_L levels (pyramid.rows) against the 2-D sum over the
+same masses (`pyramid._gather_jit.sg_gather`, kernel cut further out), seams and corners
+included."""
 import math
 
 import numpy as np
 import pytest
 
 from sgpipe.core.maps import cubemap_texel_dirs
-from sgpipe.envmap import _pyramid_jit as _pj
+from sgpipe.core.sg import sg_integral
 from sgpipe.envmap._cube_jit import FACE_UVA
-from sgpipe.envmap.pyramid import (BORDER, _EXTRA, _chain_source, _map_grid, _point_masses,
-                                   _row_gather, sg_norm)
-from sgpipe.envmap.sgkernel import difference_kernel, sg_kernel
+from sgpipe.envmap.pyramid import BORDER
+from sgpipe.envmap.pyramid._gather_jit import sg_gather
+from sgpipe.envmap.pyramid._masses_jit import row_extents
+from sgpipe.envmap.pyramid.build import EXTRA
+from sgpipe.envmap.pyramid.chain import chain_source
+from sgpipe.envmap.pyramid.direct import map_grid
+from sgpipe.envmap.pyramid.kernels import difference_kernel, sg_kernel
+from sgpipe.envmap.pyramid.layers import point_masses
+from sgpipe.envmap.pyramid.rows import row_gather
 
 from .envmap_helpers import boxes_cube, sky
 
 N = 256                     # λ_0 = (N/4)² = 4096: sharp enough for the rows
 N_CHAIN = 320               # a ratio-2 chain step λ_d = 6400: rows at a 6σ tail
-EXT = BORDER + _EXTRA
+EXT = BORDER + EXTRA
 
 
 def _masses(cube, contrast):
@@ -27,8 +33,8 @@ def _masses(cube, contrast):
     cube = cube.copy()
     for f, i, j in ((4, 0, 0), (0, n // 2, n - 1), (2, 37, 101)):
         cube[f, i, j] = contrast * np.median(cube)
-    src = _point_masses(cube)
-    return src, _pj.row_extents(src)
+    src = point_masses(cube)
+    return src, row_extents(src)
 
 
 @pytest.fixture(scope="module")
@@ -49,10 +55,10 @@ def _both(src, ex, h_src, c0, kern, ref_kern, n_out):
     """(rows used, the 2-D sum with `ref_kern` (the same kernel cut further out: ~exact), the
     rows' result with `kern`) at every bordered output."""
     ref = np.zeros((6, n_out + 2 * EXT, n_out + 2 * EXT, 6))
-    _pj.sg_gather(src, ex, FACE_UVA, n_out, EXT, float(kern[0]),
+    sg_gather(src, ex, FACE_UVA, n_out, EXT, float(kern[0]),
                   1.0 - ref_kern[1] / ref_kern[0], 4, ref, ref_kern, h_src, c0)
     rows = np.zeros_like(ref)
-    used = _row_gather(src, (h_src, c0), kern, n_out, EXT, rows, 0.0)
+    used = row_gather(src, (h_src, c0), kern, n_out, EXT, rows, 0.0)
     return used, ref, rows
 
 
@@ -71,7 +77,7 @@ def test_rows_match_the_2d_sum_for_the_sg(dim_masses, n_out):
     gather adds the other faces' masses in both)."""
     src, ex = dim_masses
     lam = (N / 4.0) ** 2 / (1.0 if n_out == N else math.sqrt(2.0))
-    used, ref, rows = _both(src, ex, *_map_grid(N), sg_kernel(lam, 4.5), sg_kernel(lam, 8.0),
+    used, ref, rows = _both(src, ex, *map_grid(N), sg_kernel(lam, 4.5), sg_kernel(lam, 8.0),
                             n_out)
     assert used
     v_err, d_err = _errors(ref, rows)
@@ -80,7 +86,7 @@ def test_rows_match_the_2d_sum_for_the_sg(dim_masses, n_out):
 
 def test_rows_match_the_2d_sum_for_a_chain_step(bright_masses):
     """A chained level from every other sample of the level two above (the partition-of-unity
-    quadrature masses of `_chain_source`) with the fitted difference kernel cut at 6σ, bright
+    quadrature masses of `chain_source`) with the fitted difference kernel cut at 6σ, bright
     content included: within 5e-4 of the 2-D sum of the same masses and kernel cut at 8σ (the
     B-spline of the row sums in the tails of the brightest texels)."""
     src0, ex0 = bright_masses
@@ -89,9 +95,9 @@ def test_rows_match_the_2d_sum_for_a_chain_step(bright_masses):
     lam_b = lam_a / 2.0
     acc = np.zeros((6, n + 2 * EXT, n + 2 * EXT, 6))
     kern0 = sg_kernel(lam_a, 8.0)
-    _pj.sg_gather(src0, ex0, FACE_UVA, n, EXT, lam_a, 1.0 - kern0[1] / kern0[0], 4, acc, kern0,
-                  *_map_grid(n))
-    src, ex, h_src, c0 = _chain_source(acc, n, EXT, float(sg_norm(lam_a)), 2)
+    sg_gather(src0, ex0, FACE_UVA, n, EXT, lam_a, 1.0 - kern0[1] / kern0[0], 4, acc, kern0,
+                  *map_grid(n))
+    src, ex, h_src, c0 = chain_source(acc, n, EXT, float(sg_integral(lam_a, 1.0)), 2)
     kern, _, _ = difference_kernel(lam_a, lam_b, 6.0)
     ref_kern, _, _ = difference_kernel(lam_a, lam_b, 8.0)
     n_out = int(math.ceil(4.0 * math.sqrt(lam_b)))
@@ -107,9 +113,9 @@ def test_rows_refuse_a_broad_kernel(dim_masses):
     src, ex = dim_masses
     kern = sg_kernel(60.0, 4.5)
     rows = np.zeros((6, 16 + 2 * EXT, 16 + 2 * EXT, 6))
-    assert not _row_gather(src, _map_grid(N), kern, 16, EXT, rows, 0.0)
+    assert not row_gather(src, map_grid(N), kern, 16, EXT, rows, 0.0)
     assert not rows.any()
-    assert not _row_gather(src, _map_grid(N), sg_kernel(4096.0, 4.5), N, EXT, rows, 1e4)
+    assert not row_gather(src, map_grid(N), sg_kernel(4096.0, 4.5), N, EXT, rows, 1e4)
 
 
 @pytest.mark.parametrize("which, k, tol", [("sky_sun", 2.0, 5e-4), ("boxes", 2.0, 3e-3),
@@ -142,7 +148,7 @@ def test_row_summed_pyramid_matches_brute_force(which, k, tol):
 def test_fast_exp_accuracy():
     """The branch-free float32 exponentials of the gathers against libm."""
     from numba import njit
-    from sgpipe.envmap._pyramid_jit import exp32_scaled, fast_exp32
+    from sgpipe.envmap.pyramid._exp_jit import exp32_scaled, fast_exp32
 
     @njit
     def both(x):
@@ -170,10 +176,11 @@ def test_fast_exp_accuracy():
 def test_exponent_poly(kern):
     """Pass 2's line weight exponent as one polynomial in x = sin²h (`exponent_poly`) against
     P(λ_d(1 − cos h)) computed exactly, over every line in reach."""
-    from sgpipe.envmap._rows_jit import _sin_hmax, exponent_poly
+    from sgpipe.envmap.pyramid._rows_pass2_jit import sin_hmax
+    from sgpipe.envmap.pyramid.rows import exponent_poly
 
     e = exponent_poly(kern)
-    x = np.linspace(0.0, _sin_hmax(float(kern[0]), float(kern[1])) ** 2, 20001)
+    x = np.linspace(0.0, sin_hmax(float(kern[0]), float(kern[1])) ** 2, 20001)
     z = kern[0] * x / (1.0 + np.sqrt(1.0 - x))
     exact = z * (kern[2] + z * (kern[3] + z * (kern[4] + z * kern[5])))
     fit = 32.0 * x * (e[0] + x * (e[1] + x * (e[2] + x * e[3])))

@@ -1,4 +1,4 @@
-"""The chained Γ_L levels' zonal kernels and quadrature (sgkernel.py, pyramid._chain_source)
+"""The chained Γ_L levels' zonal kernels and quadrature (pyramid.kernels, pyramid.chain)
 against numerical quadrature and analytic integrals."""
 import functools
 import math
@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 from scipy.special import eval_legendre, roots_legendre
 
-from sgpipe.envmap import _pyramid_jit as _pj
+from sgpipe.core.sg import sg_integral
 from sgpipe.envmap._cube_jit import FACE_UVA
-from sgpipe.envmap.pyramid import _CHAIN_PAD, _chain_source, sg_norm
-from sgpipe.envmap.sgkernel import difference_kernel, sg_legendre
+from sgpipe.envmap.pyramid import _masses_jit as _mj
+from sgpipe.envmap.pyramid.chain import CHAIN_PAD, chain_source
+from sgpipe.envmap.pyramid.kernels import difference_kernel, sg_legendre
 
 
 @functools.lru_cache(maxsize=4)
@@ -30,7 +31,7 @@ def _legendre_coef(kernel, l, u_max, n=800):
 def test_sg_legendre_coefficients_match_quadrature(lam):
     k, dk = sg_legendre(lam, 12)
     for l in range(13):
-        ref = _legendre_coef(lambda u: np.exp(-lam * u) / sg_norm(lam), l, 2.0)
+        ref = _legendre_coef(lambda u: np.exp(-lam * u) / sg_integral(lam, 1.0), l, 2.0)
         assert k[l] == pytest.approx(ref, rel=1e-7, abs=1e-12)
     h = 1e-5 * lam
     kp, _ = sg_legendre(lam + h, 12)
@@ -62,9 +63,9 @@ def test_difference_kernel_composes_to_the_sharper_sg(lam_a, tol, tol_d):
     L = int(3 * math.sqrt(lam_b)) + 4
     ka, _ = sg_legendre(lam_a, L)
     kb, dkb = sg_legendre(lam_b, L)
-    s_b = float(sg_norm(lam_b))
+    s_b = float(sg_integral(lam_b, 1.0))
     h = 1e-6 * lam_b
-    ds_b = float(sg_norm(lam_b + h) - sg_norm(lam_b - h)) / (2 * h)
+    ds_b = float(sg_integral(lam_b + h, 1.0) - sg_integral(lam_b - h, 1.0)) / (2 * h)
     keep = kb > 1e-4
     ls = np.arange(L + 1)[keep]
     got = _legendre_coef(w, ls, u_max) * ka[keep]
@@ -108,12 +109,12 @@ def test_chain_quadrature_integrates_smooth_functions(n, step):
 
     ext = 7
     acc = _extended_acc(n, ext, fn)
-    src, _, h, c0 = _chain_source(acc, n, ext, 1.0, step)
-    total = src[:, :, _pj.E0:_pj.E2 + 1, :].astype(np.float64).sum(axis=(0, 1, 3))
+    src, _, h, c0 = chain_source(acc, n, ext, 1.0, step)
+    total = src[:, :, _mj.E0:_mj.E2 + 1, :].astype(np.float64).sum(axis=(0, 1, 3))
     ref = np.array([4 * math.pi, 4 * math.pi / 3, 2 * math.pi * (1 - math.exp(-40.0)) / 20.0])
     np.testing.assert_allclose(total, ref, rtol=3e-5)
-    m = (n + 2 * _CHAIN_PAD + step - 1) // step
-    assert src.shape == (6, m, _pj.NCOMP, m) and h == step * 2.0 / n
+    m = (n + 2 * CHAIN_PAD + step - 1) // step
+    assert src.shape == (6, m, _mj.NCOMP, m) and h == step * 2.0 / n
     # the row-block directions are the grid's: centres at c0 + i·h on face 0 (+X)
-    np.testing.assert_allclose(src[0, m // 2, _pj.CX:_pj.CZ + 1, 0], _face0(c0, c0 + (m // 2) * h),
+    np.testing.assert_allclose(src[0, m // 2, _mj.CX:_mj.CZ + 1, 0], _face0(c0, c0 + (m // 2) * h),
                                atol=1e-6)

@@ -13,10 +13,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
 from scipy.special import ive
 
 from sgpipe.core.sg import sg_integral
+from sgpipe.envmap.pyramid._kernels_jit import legendre_series
 
 _NU = 48                                # fit nodes on [0, u_cut]
 
@@ -29,26 +29,6 @@ def sg_legendre(lam: float, lmax: int) -> tuple[np.ndarray, np.ndarray]:
     di = i[1:] + l[:-1] / lam * i[:-1]  # I'_ν = I_{ν+1} + (ν/λ) I_ν
     dk = (di * i[0] - i[:-1] * (i[1] + 0.5 / lam * i[0])) / i[0] ** 2
     return k, dk
-
-
-@njit(cache=True, parallel=True)
-def legendre_series(coef, x):
-    """Σ_l (2l+1)/(4π) coef[l] P_l(x) at each x (three-term recurrence; the nodes in
-    parallel)."""
-    out = np.empty((coef.shape[0], x.shape[0]))
-    for m in prange(x.shape[0]):
-        xm = x[m]
-        for c in range(coef.shape[0]):
-            p0 = 1.0
-            p1 = xm
-            s = coef[c, 0] + 3.0 * coef[c, 1] * p1
-            for l in range(1, coef.shape[1] - 1):
-                p2 = ((2 * l + 1) * xm * p1 - l * p0) / (l + 1)
-                s += (2 * l + 3) * coef[c, l + 1] * p2
-                p0 = p1
-                p1 = p2
-            out[c, m] = s / (4.0 * math.pi)
-    return out
 
 
 def _dsg_norm(lam):
@@ -65,8 +45,8 @@ def sg_kernel(lam: float, tail: float) -> np.ndarray:
 
 def difference_kernel(lam_a: float, lam_b: float, tail: float = 4.5):
     """Chain step a → b: (kern, amplitude, fit error) such that, over the level-a samples as
-    quadrature masses E = V_a·w (pyramid._chain_source), Γ_b = amplitude · Σ E k and
-    ∂Γ_b/∂λ_b = amplitude · Σ E k r with k, r the kernel and ratio of `_pyramid_jit._poly_tap`.
+    quadrature masses E = V_a·w (`chain.chain_source`), Γ_b = amplitude · Σ E k and
+    ∂Γ_b/∂λ_b = amplitude · Σ E k r with k, r the kernel and ratio of `_gather_jit._poly_tap`.
 
     The kernels are S_b·Δ and S_b'·Δ + S_b·∂Δ/∂λ_b, cut at `tail` standard deviations of Δ
     (σ² = 1/λ_d, 1/λ_d = 1/λ_b − 1/λ_a) with the amplitude renormalised so the cut kernel still
