@@ -95,7 +95,7 @@ def main() -> int:
     # the map, level 1 and the chained levels from sharper levels, the broad ones from the
     # moment MIP). Each variant: its first build (peak memory measured there), then the best of
     # two more with the previous result dropped (the first build of a process also pays for
-    # faulting in its fresh memory: ~2 µs per 4 KB page here, ~300 MB per build)
+    # faulting in its fresh memory)
     variants = (("default", {}),
                 ("dense: texels_per_sigma 2", {"texels_per_sigma": 2.0}),
                 ("baseline: 2-D gathers, no rows", {"rows_lambda_min": math.inf,

@@ -124,9 +124,8 @@ def test_row_summed_pyramid_matches_brute_force(which, k, tol):
     """A 256² pyramid whose sharp levels are summed by rows (the direct levels, the chain steps
     down to λ_d 500; the boxes' bright layer too, contrast ~470 < 10³) against brute-force
     quadrature at λ on and between those levels, on the cube seams, corners and poles and next
-    to the brightest texels. Measured at 2 texels per σ: sky + 1-texel sun 3.9e-4, sharp-edged
-    boxes 9.9e-4 (the all-2-D build: 3.0e-4, 9.6e-4); at the automatic 1.5 (both maps' levels
-    have bounded contrast): 5.2e-4 and 2.2e-3 (all-2-D: 1.1e-4, 1.4e-3)."""
+    to the brightest texels, at 2 texels per σ and at the automatic 1.5 (both maps' levels have
+    bounded contrast)."""
     from sgpipe.envmap.pyramid import PyramidSettings, build_pyramid
 
     from .envmap_helpers import brute_gamma, probe_directions, sky_sun_cube

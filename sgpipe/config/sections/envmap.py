@@ -21,8 +21,9 @@ class EnvmapSection:
                                           "face centre (each level's resolution; λ_0 = (N/4)², "
                                           "σ = 2 finest texels). 0 = from the content: 2 when a "
                                           "bright layer above 10³ × the median stays in the "
-                                          "levels (a sun too large for the point set: 1.4 % off "
-                                          "at 1.5), else 1.5 (≤ 0.13 % off, 0.56× the texels). "
+                                          "levels (a sun too large for the point set: its tails "
+                                          "next to dark sky need the denser B-spline), else 1.5 "
+                                          "(bounded contrast: as accurate with fewer texels). "
                                           "Below ~1.3 the levels are too coarse to chain and all "
                                           "come from the map (slower).", 0.0, ge=0.0, le=8.0)
     pyramid_lambda_min: float = doc("Γ_L pyramid: levels continue down to the first λ <= this.",

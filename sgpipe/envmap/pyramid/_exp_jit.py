@@ -16,6 +16,16 @@ _FM1 = np.float32(-1.0)
 
 
 @njit(cache=True, fastmath=True, inline="always")
+def _pow32(r):
+    """r³² by five squarings (the Taylor polynomials' range reduction undone)."""
+    r = r * r
+    r = r * r
+    r = r * r
+    r = r * r
+    return r * r
+
+
+@njit(cache=True, fastmath=True, inline="always")
 def fast_exp32(x):
     """e^x for x in [−60, 0] (clamped), float32 (8 lanes per AVX2 register): degree-10 Taylor
     of e^{x/64}, squared six times. Relative error < 1e-5 (float32 rounding, amplified by the
@@ -24,11 +34,7 @@ def fast_exp32(x):
     x = min(max(x, _FMIN), _F0) * _F64TH
     y = _FC[0] + x * (_FC[1] + x * (_FC[2] + x * (_FC[3] + x * (_FC[4] + x * (
         _FC[5] + x * (_FC[6] + x * (_FC[7] + x * (_FC[8] + x * (_FC[9] + x * _FC[10])))))))))
-    y = y * y
-    y = y * y
-    y = y * y
-    y = y * y
-    y = y * y
+    y = _pow32(y)
     return y * y
 
 
@@ -46,11 +52,7 @@ def exp32_scaled(y):
     x4 = x2 * x2
     r = (((_FC[0] + x * _FC[1]) + x2 * (_FC[2] + x * _FC[3]))
          + x4 * ((_FC[4] + x * _FC[5]) + x2 * (_FC[6] + x * _FC[7])))
-    r = r * r
-    r = r * r
-    r = r * r
-    r = r * r
-    return r * r
+    return _pow32(r)
 
 
 @njit(cache=True, fastmath=True, inline="always")
