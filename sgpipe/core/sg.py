@@ -87,6 +87,13 @@ def sg_integral(lam, mu):
     return _scale_amp(_TWO_PI * _sinhc_ratio(np.asarray(lam, float)), mu)
 
 
+def dln_sg_norm(lam):
+    """Wang09 eq 35's S(λ) = ∫G(·; p, λ, 1): its log-slope ∂ln S/∂ln λ = 2λ/(e^{2λ} − 1) − 1."""
+    lam = np.asarray(lam, float)
+    x = np.clip(2.0 * lam, 1e-300, 700.0)     # 700: e^{2λ} stays finite; the slope is −1 there
+    return np.where(lam < 1e-8, -lam, x / np.expm1(x) - 1.0)
+
+
 def sg_rotate(R, p):
     """Wang09 eq 7: a rotated lobe keeps λ, μ and has axis R p (R: (..., 3, 3))."""
     return np.einsum("...ij,...j->...i", np.asarray(R, float), np.asarray(p, float))

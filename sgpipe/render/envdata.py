@@ -1,6 +1,7 @@
 """Environment artifacts (`<out>/envmap/`, docs/ARTIFACTS.md envmap/) → packed arrays the
 OpenCL kernels read: the normalised Γ_L pyramid (Wang09 eq 34–35), the box MIP chain (paper 000
-eq 6–11, FIS) and the diffuse SG light fit (Wang09 §6). Read from disk, not via sgpipe.envmap.
+eq 6–11, FIS) and the diffuse SG light fit (Wang09 §6). Read through the contract's readers
+(sgpipe.artifacts.envmap), not via sgpipe.envmap.
 
 Packed cubemap chain (`CubeChain`): float32 (T, 4) texels (RGB + 0), levels in order, each level
 in the bordered "cube6v_b1" layout (6·(n+2) rows × (n+2) columns); `offsets[l]` is level l's
@@ -18,22 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
+from sgpipe.artifacts import envmap as contract
+from sgpipe.artifacts.envmap import COEF_BORDER, SAMPLE_BORDER
+from sgpipe.core.sg import dln_sg_norm
 from sgpipe.errors import BadInput
-from sgpipe.io import read_exr, read_npz
-
-GAMMA_BORDER = 2     # border of coef_LL / slope_LL (cubic B-spline taps −1..+2)
-
-
-def scalar(a) -> float:
-    """A stored scalar as float (sgpipe.io.write_npz currently stores () arrays as (1,))."""
-    return float(np.asarray(a, np.float64).reshape(-1)[0])
-
-
-def dln_sg_norm(lam):
-    """∂ln S/∂ln λ = 2λ/(e^{2λ} − 1) − 1: the log-slope of Γ_L for a constant environment."""
-    lam = np.asarray(lam, np.float64)
-    x = np.clip(2.0 * lam, 1e-300, 700.0)
-    return np.where(lam < 1e-8, -lam, x / np.expm1(x) - 1.0)
 
 
 def bordered_dirs(n: int, border: int) -> np.ndarray:
@@ -46,7 +35,8 @@ def bordered_dirs(n: int, border: int) -> np.ndarray:
 
 
 def bilinear_b1(img: np.ndarray, n: int, d: np.ndarray) -> np.ndarray:
-    """Bilinear lookup of a "cube6v_b1" level (6·(n+2), n+2, C) at directions (..., 3)."""
+    """Bilinear lookup of a "cube6v_b1" level (6·(n+2), n+2, C) at directions (..., 3): the
+    contract's fetch (docs/ARTIFACTS.md envmap/), clamped inside the direction's bordered face."""
     from sgpipe.core.maps import dir_to_cubemap
     face, s, t = dir_to_cubemap(np.asarray(d, float))
     w = n + 2
@@ -96,6 +86,16 @@ class CubeChain:
             off += len(rgba)
         return cls(np.concatenate(parts), np.asarray(offs, np.int32), np.asarray(res, np.int32))
 
+    def level(self, l: int) -> np.ndarray:
+        """Level l as its bordered image (6·(n+2), n+2, 3), a view into `texels`."""
+        w = int(self.res[l]) + 2 * SAMPLE_BORDER
+        off = int(self.offsets[l])
+        return self.texels[off:off + 6 * w * w, :3].reshape(6 * w, w, 3)
+
+    def bilinear(self, l: int, d: np.ndarray) -> np.ndarray:
+        """Bilinear lookup of level l at directions (..., 3) → (..., 3) float64."""
+        return bilinear_b1(self.level(l), int(self.res[l]), d)
+
     @classmethod
     def constant(cls, rgb, face_res: int = 1, levels: int = 1) -> "CubeChain":
         rgb = np.broadcast_to(np.asarray(rgb, np.float32), (3,))
@@ -124,14 +124,14 @@ class GammaChain:
             v = np.asarray(v, np.float32)
             m = np.asarray(m, np.float32)
             w = v.shape[1]
-            if v.ndim != 3 or v.shape[0] != 6 * w or w < 2 * GAMMA_BORDER + 1 or m.shape != v.shape:
+            if v.ndim != 3 or v.shape[0] != 6 * w or w < 2 * COEF_BORDER + 1 or m.shape != v.shape:
                 raise ValueError(f"not a border-2 cubemap level: shapes {v.shape}, {m.shape}")
             pair = np.zeros((v.shape[0] * w, 2, 4), np.float32)
             pair[:, 0, :3] = v[..., :3].reshape(-1, 3)
             pair[:, 1, :3] = m[..., :3].reshape(-1, 3)
             parts.append(pair.reshape(-1, 4))
             offs.append(off)
-            res.append(w - 2 * GAMMA_BORDER)
+            res.append(w - 2 * COEF_BORDER)
             off += v.shape[0] * w
         return cls(np.concatenate(parts), np.asarray(offs, np.int32), np.asarray(res, np.int32))
 
@@ -146,8 +146,8 @@ class GammaChain:
         res = [np.asarray(s).shape[1] - 2 for s in samples]
         vals, slps = [], []
         for l, (smp, n) in enumerate(zip(samples, res)):
-            d = bordered_dirs(n, GAMMA_BORDER)
-            w = n + 2 * GAMMA_BORDER
+            d = bordered_dirs(n, COEF_BORDER)
+            w = n + 2 * COEF_BORDER
 
             def at(k):
                 return bilinear_b1(samples[k], res[k], d)
@@ -162,15 +162,15 @@ class GammaChain:
                 ok = (va > 0) & (vb > 0)
                 dv = (np.log(np.where(ok, va, 1.0)) - np.log(np.where(ok, vb, 1.0)))
                 m += np.where(ok, dv / np.log(lam[ka] / lam[kb]), 0.0)
-            vals.append(bspline_prefilter(v, n, GAMMA_BORDER))
-            slps.append(bspline_prefilter(m, n, GAMMA_BORDER))
+            vals.append(bspline_prefilter(v, n, COEF_BORDER))
+            slps.append(bspline_prefilter(m, n, COEF_BORDER))
         return cls.from_levels(vals, slps)
 
     @classmethod
     def constant(cls, rgb, face_res: int, lambdas) -> "GammaChain":
         """A uniform map: V = rgb at every level, m = ∂ln S/∂ln λ (Γ_L = S(λ)·rgb)."""
         rgb = np.broadcast_to(np.asarray(rgb, np.float32), (3,))
-        w = face_res + 2 * GAMMA_BORDER
+        w = face_res + 2 * COEF_BORDER
         vals = [np.broadcast_to(rgb, (6 * w, w, 3)).copy() for _ in lambdas]
         slps = [np.full((6 * w, w, 3), dln_sg_norm(lam), np.float32) for lam in lambdas]
         return cls.from_levels(vals, slps)
@@ -199,11 +199,8 @@ class EnvData:
     def __post_init__(self):
         if self.gamma is None:
             p = self.pyramid
-            levels = []
-            for off, n in zip(p.offsets, p.res):
-                w = int(n) + 2
-                levels.append(p.texels[int(off):int(off) + 6 * w * w, :3].reshape(6 * w, w, 3))
-            self.gamma = GammaChain.from_samples(levels, self.lambdas)
+            self.gamma = GammaChain.from_samples([p.level(l) for l in range(len(p.res))],
+                                                 self.lambdas)
 
     @property
     def mip_N(self) -> int:
@@ -247,52 +244,23 @@ class EnvData:
     @classmethod
     def load(cls, folder: str | Path) -> "EnvData":
         """Read `<out>/envmap/` (pyramid.npz + pyramid/{level,coef,slope}_LL.exr, mip.npz +
-        mip/cube_MM.exr, light_sg.npz). Without coef/slope files the accurate chain is derived
-        from the plain levels (GammaChain.from_samples)."""
+        mip/cube_MM.exr, light_sg.npz; readers of sgpipe.artifacts.envmap). Without coef/slope
+        files the accurate chain is derived from the plain levels (GammaChain.from_samples)."""
         folder = Path(folder)
         if not folder.is_dir():
             raise BadInput("environment artifacts not found (run `sgpipe precompute` first)",
-                           file=folder, key="envmap")
-        idx = read_npz(folder / "pyramid.npz", required=("lambdas", "face_res", "mean"),
-                       key="envmap")
-        lam = np.asarray(idx["lambdas"], np.float64)
-        fres = np.asarray(idx["face_res"], np.int64).reshape(-1)
-        pyr = folder / "pyramid"
-        levels = [read_exr(pyr / f"level_{i:02d}.exr", channels=(3, 4),
-                           key="envmap")[..., :3] for i in range(len(lam))]
-        gamma = None
-        if (pyr / "coef_00.exr").is_file():
-            vals, slps = [], []
-            for i, n in enumerate(fres):
-                w = int(n) + 2 * GAMMA_BORDER
-                for kind, dst in (("coef", vals), ("slope", slps)):
-                    img = read_exr(pyr / f"{kind}_{i:02d}.exr", channels=(3, 4),
-                                   key="envmap")[..., :3]
-                    if img.shape != (6 * w, w, 3):
-                        raise BadInput(f"shape {img.shape}, pyramid.npz face_res {n} needs "
-                                       f"{(6 * w, w, 3)}", file=pyr / f"{kind}_{i:02d}.exr",
-                                       key="envmap")
-                    dst.append(img)
-            gamma = GammaChain.from_levels(vals, slps)
-        raw = None
-        if (pyr / "raw.exr").is_file():
-            img = read_exr(pyr / "raw.exr", channels=(3, 4), key="envmap")[..., :3]
-            if img.shape[0] != 6 * img.shape[1]:
-                raise BadInput(f"shape {img.shape} is not a bordered cube strip",
-                               file=pyr / "raw.exr", key="envmap")
-            raw = CubeChain.from_levels([img])
-        ratio = scalar(idx["ratio"]) if "ratio" in idx else (
-            float(lam[0] / lam[1]) if len(lam) > 1 else 2.0)
-        mip_idx = read_npz(folder / "mip.npz", required=("cube_res",), key="envmap")
-        mips = [read_exr(folder / "mip" / f"cube_{i:02d}.exr", channels=(3, 4),
-                         key="envmap")[..., :3] for i in range(len(mip_idx["cube_res"]))]
-        lsg = read_npz(folder / "light_sg.npz", required=("axes", "sharpness", "amplitude"),
-                       key="envmap")
-        return cls(pyramid=CubeChain.from_levels(levels), lambdas=lam.astype(np.float32),
-                   log_ratio=float(np.log(ratio)), mean=np.asarray(idx["mean"], np.float32),
-                   mip=CubeChain.from_levels(mips),
-                   light_axes=np.asarray(lsg["axes"], np.float32).reshape(-1, 3),
-                   light_lambda=np.asarray(lsg["sharpness"], np.float32).reshape(-1),
-                   light_mu=np.asarray(lsg["amplitude"], np.float32).reshape(-1, 3),
-                   gamma=gamma, raw=raw, **{k: np.asarray(idx[k], np.float32).reshape(-1, 3)
-                                            for k in ("point_dirs", "point_energy") if k in idx})
+                           file=folder, key=contract.KEY)
+        pyr = contract.read_pyramid(folder)
+        mip = contract.read_mip(folder, "cube")
+        lsg = contract.read_light_sg(folder)
+        f32 = np.float32
+        return cls(pyramid=CubeChain.from_levels(pyr.samples), lambdas=pyr.lambdas.astype(f32),
+                   log_ratio=float(np.log(pyr.ratio)), mean=np.asarray(pyr.mean, f32),
+                   mip=CubeChain.from_levels(mip.levels),
+                   light_axes=lsg.axes.astype(f32), light_lambda=lsg.sharpness.astype(f32),
+                   light_mu=lsg.amplitude.astype(f32),
+                   gamma=None if pyr.values is None else GammaChain.from_levels(pyr.values,
+                                                                                pyr.slopes),
+                   raw=None if pyr.raw is None else CubeChain.from_levels([pyr.raw]),
+                   point_dirs=pyr.point_dirs.astype(f32),
+                   point_energy=pyr.point_energy.astype(f32))

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
+from sgpipe.artifacts import fit as contract
+from sgpipe.artifacts import scalar
 from sgpipe.errors import BadInput
-from sgpipe.io import read_npz
-from sgpipe.render.envdata import scalar
 
 MAT_STRIDE = 32
 # Slots (kernels/include/microfacet.h); 27..31 describe the view-GMM / NDF tables.
@@ -61,31 +61,19 @@ class Material:
 
     @classmethod
     def load(cls, folder: str | Path, name: str, *, need_gmm: bool = False) -> "Material":
-        """Read `<out>/fit/<name>/` (microfacet.npz, ndf_sg.npz, view_gmm.npz if needed)."""
+        """Read `<out>/fit/<name>/` (microfacet.npz, ndf_sg.npz, view_gmm.npz if needed) with
+        the readers of sgpipe.artifacts.fit."""
         folder = Path(folder)
         if not folder.is_dir():
             raise BadInput(f"fitted material {name!r} not found (run `sgpipe fit` first)",
                            file=folder, key="fit.materials")
-        mf = read_npz(folder / "microfacet.npz", key=f"fit.materials.{name}",
-                      required=("kd", "ks", "g_scale", "diffuse", "fresnel", "shadowing"))
-        get = lambda k, d: np.asarray(mf[k], float) if k in mf else np.asarray(d, float)
-        m = cls(name, kd=get("kd", 0).reshape(3), ks=get("ks", 0).reshape(3),
-                g_scale=scalar(mf["g_scale"]), diffuse=int(scalar(mf["diffuse"])),
-                fresnel=int(scalar(mf["fresnel"])), f0=get("f0", [0, 0, 0]).reshape(3),
-                eta=get("eta", [0, 0, 0]).reshape(3), k=get("k", [0, 0, 0]).reshape(3),
-                shadowing=int(scalar(mf["shadowing"])), alpha_u=scalar(get("alpha_u", 0)),
-                alpha_v=scalar(get("alpha_v", 0)),
-                shadow_table=get("shadow_table", np.ones(90)).reshape(-1))
-        ndf = read_npz(folder / "ndf_sg.npz", key=f"fit.materials.{name}",
-                       required=("axis", "sharpness", "amplitude"))
-        m.lobe_axis = np.asarray(ndf["axis"], float).reshape(-1, 3)
-        m.lobe_lambda = np.asarray(ndf["sharpness"], float).reshape(-1)
-        m.lobe_mu = np.asarray(ndf["amplitude"], float).reshape(-1)
-        if need_gmm:
-            m.gmm = read_npz(folder / "view_gmm.npz", key=f"fit.materials.{name}",
-                             required=("view_theta", "view_phi", "alpha", "kappa", "mu_theta",
-                                       "mu_phi", "includes_diffuse", "coherent"))
-        return m
+        mf = contract.read_microfacet(folder, name)
+        ndf = contract.read_ndf_sg(folder, name)
+        return cls(name, kd=mf.kd, ks=mf.ks, g_scale=mf.g_scale, diffuse=mf.diffuse,
+                   fresnel=mf.fresnel, f0=mf.f0, eta=mf.eta, k=mf.k, shadowing=mf.shadowing,
+                   alpha_u=mf.alpha_u, alpha_v=mf.alpha_v, shadow_table=mf.shadow_table,
+                   lobe_axis=ndf.axis, lobe_lambda=ndf.sharpness, lobe_mu=ndf.amplitude,
+                   gmm=contract.read_view_gmm(folder, name) if need_gmm else None)
 
     @classmethod
     def from_brdf(cls, name: str, brdf, lobes=None) -> "Material":

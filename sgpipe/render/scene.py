@@ -1,9 +1,10 @@
 """Scene objects of the config (`scene.objects`) → what the renderer traces and shades.
 
-Meshes: the visibility stage's `visibility/<object>/geometry.npz` when present (so triangle
-ids and vertex order match the per-vertex SSDF coefficients), else `sgpipe.io.mesh` (the same
-shared loader). Analytic spheres stay analytic for primary visibility; their SSDF data live on
-the visibility stage's icosphere, reached per pixel by a ray from the centre ("proxy" mapping).
+Meshes: the visibility stage's `visibility/<object>/geometry.npz` when present (read with
+sgpipe.artifacts.visibility, so triangle ids and vertex order match the per-vertex SSDF
+coefficients), else `sgpipe.io.mesh` (the same shared loader). Analytic spheres stay analytic
+for primary visibility; their SSDF data live on the visibility stage's icosphere, reached per
+pixel by a ray from the centre ("proxy" mapping).
 """
 
 from __future__ import annotations
@@ -12,10 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
+from sgpipe.artifacts import visibility as contract
 from sgpipe.errors import BadInput
-from sgpipe.io import read_npz
-from sgpipe.render.envdata import scalar
-from sgpipe.render.gbuffer import TraceObject, Tracer
+from sgpipe.scene.gbuffer import TraceObject, Tracer
 
 
 def object_rotation(rotate_deg) -> np.ndarray:
@@ -24,13 +24,11 @@ def object_rotation(rotate_deg) -> np.ndarray:
     return object_matrix((0.0, 0.0, 0.0), rotate_deg, 1.0)[:3, :3]
 
 
-def _geometry(vis_dir: Path | None, name: str) -> dict | None:
-    if vis_dir is None:
+def _geometry(vis_dir: Path | None, name: str) -> contract.Geometry | None:
+    if vis_dir is None or not (Path(vis_dir) / contract.object_file(name, contract.GEOMETRY)
+                               ).is_file():
         return None
-    p = Path(vis_dir) / name / "geometry.npz"
-    if not p.is_file():
-        return None
-    return read_npz(p, key=f"visibility.{name}", required=("positions", "normals", "faces"))
+    return contract.read_geometry(vis_dir, name)
 
 
 def load_trace_objects(cfg, vis_dir: str | Path | None = None) -> list[TraceObject]:
@@ -48,9 +46,8 @@ def load_trace_objects(cfg, vis_dir: str | Path | None = None) -> list[TraceObje
             continue
         g = _geometry(Path(vis_dir) if vis_dir else None, spec.name)
         if g is not None:
-            out.append(TraceObject.mesh(spec.name, g["positions"], g["faces"],
-                                        normals=g["normals"], tangents=g.get("tangents"),
-                                        uvs=g.get("uvs")))
+            out.append(TraceObject.mesh(spec.name, g.positions, g.faces, normals=g.normals,
+                                        tangents=g.tangents, uvs=g.uvs))
         else:
             m = load_object(spec, k, sphere_subdivisions=sub)
             out.append(TraceObject.mesh(spec.name, m.positions, m.faces, normals=m.normals,
@@ -67,23 +64,22 @@ def load_vis_objects(cfg, vis_dir: str | Path | None):
             out.append((None, None))
             continue
         folder = Path(vis_dir) / spec.name
-        if not (folder / "ssdf_pca.npz").is_file():
+        if not (folder / contract.SSDF_PCA).is_file():
             raise BadInput("visibility data missing for this object (rerun `sgpipe "
                            "precompute`)", file=folder, key=f"scene.objects.{spec.name}")
-        pca = read_npz(folder / "ssdf_pca.npz", key=f"visibility.{spec.name}",
-                       required=("mean", "basis", "coeffs"))
+        pca = contract.read_ssdf_pca(vis_dir, spec.name)
         g = _geometry(Path(vis_dir), spec.name)
         if g is None:
-            raise BadInput("geometry.npz missing", file=folder, key=f"visibility.{spec.name}")
-        vis = VisObject(faces=np.asarray(g["faces"], np.int32),
-                        coeffs=np.asarray(pca["coeffs"], np.float32),
-                        mean=np.asarray(pca["mean"], np.float32),
-                        basis=np.asarray(pca["basis"], np.float32).reshape(
-                            -1, *np.shape(pca["mean"])),
-                        max_distance=scalar(pca.get("max_distance", np.pi / 2)))
+            raise BadInput(f"{contract.GEOMETRY} missing", file=folder,
+                           key=f"visibility.{spec.name}")
+        vis = VisObject(faces=np.asarray(g.faces, np.int32),
+                        coeffs=np.asarray(pca.coeffs, np.float32),
+                        mean=np.asarray(pca.mean, np.float32),
+                        basis=np.asarray(pca.basis, np.float32),
+                        max_distance=pca.max_distance)
         proxy = None
         if spec.sphere_radius is not None:
-            proxy = TraceObject.mesh(spec.name, g["positions"], g["faces"])
+            proxy = TraceObject.mesh(spec.name, g.positions, g.faces)
         out.append((vis, proxy))
     return out
 

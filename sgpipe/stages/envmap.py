@@ -26,6 +26,7 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
         log("[envmap] no 'envmap:' section in the config; nothing to do")
         return None
     from sgpipe.core.maps import latlong_solid_angles, latlong_texel_dirs
+    from sgpipe.artifacts import envmap as artifacts
     from sgpipe.envmap import lightfit, maps, mip, store
     from sgpipe.envmap.pyramid import PyramidSettings, build_pyramid
 
@@ -48,9 +49,7 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
                                    max_points=e.pyramid_max_points)
         pyr = build_pyramid(cube, settings)
         run.timings["pyramid_s"] = time.perf_counter() - t
-        for name, img, meta, png in store.pyramid_files(pyr):
-            run.write_exr(name, img, metadata=meta, png=png)
-        run.write_npz(store.PYRAMID_INDEX, store.pyramid_index(pyr))
+        artifacts.write_pyramid(run, store.pyramid_artifacts(pyr))
         run.report["pyramid_levels"] = len(pyr.lambdas)
         run.report["pyramid_lambda0"] = float(pyr.lambdas[0])
         run.report["pyramid_bright_texels"] = pyr.info["bright_texels"]
@@ -64,11 +63,8 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
         dp_res = e.dp_resolution or e.cube_resolution
         dp = maps.cubemap_to_dual_paraboloid(cube, dp_res, e.dp_scale)
         dp_chain = mip.build_dp_chain(dp, e.dp_scale)
-        for name, img, meta, png in store.mip_files(cube_chain, dp_chain):
-            run.write_exr(name, img, metadata=meta, png=png)
-        idx = store.mip_index(cube_chain, dp_chain)
-        idx["coverage"] = np.float64(e.mip_coverage)
-        run.write_npz(store.MIP_INDEX, idx)
+        artifacts.write_mip(run, cube_chain.levels, dp_chain.levels, dp_b=dp_chain.b,
+                            coverage=e.mip_coverage)
         run.timings["mip_s"] = time.perf_counter() - t
 
         t = time.perf_counter()
@@ -76,20 +72,19 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
         normals = latlong_texel_dirs(h, 2 * h)
         weights = latlong_solid_angles(h, 2 * h)
         exact = lightfit.irradiance_map(cube, h, 2 * h)
-        run.write_exr("irradiance.exr", exact, metadata={"quantity": "irradiance"})
+        artifacts.write_irradiance(run, exact)
         sg = lightfit.fit_sg_light(cube, e.sg_lobes)
         e_sg = sg.irradiance_exact(normals)
         e_sg40 = sg.irradiance_sg(normals)
         err_sg = lightfit.rel_rms(e_sg, exact, weights)
         err_sg40 = lightfit.rel_rms(e_sg40, exact, weights)
-        run.write_npz(store.LIGHT_SG, {"axes": sg.axes, "sharpness": sg.sharpness,
-                                       "amplitude": sg.amplitude,
-                                       "irradiance_rel_err": err_sg,
-                                       "irradiance_rel_err_eq40": err_sg40})
+        artifacts.write_light_sg(run, axes=sg.axes, sharpness=sg.sharpness,
+                                 amplitude=sg.amplitude, irradiance_rel_err=err_sg,
+                                 irradiance_rel_err_eq40=err_sg40)
         sh = lightfit.sh_light(cube, e.sh_lmax)
         e_sh = lightfit.sh_irradiance(sh["irradiance_coeffs"], normals)
         err_sh = lightfit.rel_rms(e_sh, exact, weights)
-        run.write_npz(store.LIGHT_SH, {**sh, "irradiance_rel_err": err_sh})
+        artifacts.write_light_sh(run, **sh, irradiance_rel_err=err_sh)
         run.report["sg_light_irradiance_rel_err"] = err_sg
         run.report["sg_light_irradiance_rel_err_eq40"] = err_sg40
         run.report["sh_irradiance_rel_err"] = err_sh

@@ -1,4 +1,5 @@
-"""The fit stage: `cfg.fit` -> artifacts under `<out>/fit/<material>/` (docs/ARTIFACTS.md)."""
+"""The fit stage: `cfg.fit` -> artifacts under `<out>/fit/<material>/` (contract:
+sgpipe.artifacts.fit, docs/ARTIFACTS.md)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sgpipe.artifacts import fit as artifacts
 from sgpipe.brdf import LUMINANCE, REGISTRY, BRDFParamError, make_brdf
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
@@ -66,7 +68,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     with StageRun(cfg, out_dir, "fit", params=to_plain(fit), inputs=inputs, force=force) as run:
         if run.skipped:
             return run
-        run.write_json("materials.json", {"materials": [m.name for m in fit.materials]})
+        artifacts.write_materials_index(run, [m.name for m in fit.materials])
         for n, (spec, brdf) in enumerate(zip(fit.materials, brdfs)):
             log(f"[fit] material {spec.name} ({spec.model})")
             run.report[spec.name] = fit_material(run, cfg, n, spec, brdf)
@@ -78,7 +80,7 @@ def fit_material(run: StageRun, cfg, index: int, spec, brdf) -> dict:
     name = spec.name
     seed = int(getattr(cfg, "seed", 0)) * 1000 + index
     report: dict = {"model": spec.model, "params": to_plain(spec.params)}
-    write_microfacet(run, name, brdf)
+    artifacts.write_microfacet(run, name, brdf.microfacet_params())
     if hasattr(brdf, "fit"):
         report["tabulated"] = write_tabulated(run, name, brdf.fit)
     t0 = time.perf_counter()
@@ -89,32 +91,15 @@ def fit_material(run: StageRun, cfg, index: int, spec, brdf) -> dict:
         report["view_gmm"] = write_view_gmm(run, name, brdf, cfg.fit.view_gmm, seed,
                                             report["ndf_sg"])
         run.timings[f"{name}.view_gmm_s"] = time.perf_counter() - t0
-    run.write_json(f"{name}/report.json", report)
+    run.write_json(artifacts.material_file(name, artifacts.REPORT), report)
     summary = {"ndf_sg_rel_l2": report["ndf_sg"].get("rel_l2")}
     if "view_gmm" in report:
         summary["view_gmm_max_rel_l2"] = report["view_gmm"]["max_rel_l2"]
     return summary
 
 
-def write_microfacet(run, name: str, brdf) -> None:
-    """microfacet.json (names and values) + microfacet.npz (numbers, float32/int32)."""
-    mf = brdf.microfacet_params()
-    arrays = {}
-    for k, v in mf.items():
-        if k.endswith("_kind"):
-            continue
-        if k == "model":
-            arrays[k] = np.array(v)
-        elif isinstance(v, (int, np.integer)) and k in ("diffuse", "fresnel", "shadowing"):
-            arrays[k] = np.int32(v)
-        else:
-            arrays[k] = np.asarray(v, np.float32)
-    run.write_npz(f"{name}/microfacet.npz", arrays)
-    run.write_json(f"{name}/microfacet.json", mf)
-
-
 def write_tabulated(run, name: str, tab) -> dict:
-    run.write_npz(f"{name}/tabulated.npz", tab.arrays())
+    artifacts.write_tabulated(run, name, tab.arrays())
     return {"rel_err": tab.rel_err, "kd": tab.kd, "ks": tab.ks, "eta": tab.eta,
             "shadow_pca_error": float(np.max(np.abs(tab.shadow - tab.shadow_raw)))}
 
@@ -124,7 +109,7 @@ def write_ndf_sg(run, name: str, brdf, spec, seed: int) -> dict:
     ndf = brdf.ndf_model
     if not (spec.enabled and brdf.has_specular):
         empty = NdfSG(np.zeros((0, 3)), np.zeros(0), np.zeros(0), "none", 0.0)
-        run.write_npz(f"{name}/ndf_sg.npz", empty.arrays())
+        artifacts.write_ndf_sg(run, name, empty.arrays())
         return {"lobes": 0, "method": "none"}
     lobes = spec.lobes or (1 if ndf.isotropic and ndf.sg_analytic() is not None
                            else (2 if ndf.isotropic else 8))
@@ -132,7 +117,7 @@ def write_ndf_sg(run, name: str, brdf, spec, seed: int) -> dict:
     if spec.method == "auto" and not spec.lobes and sg.method == "analytic" and sg.rel_l2 > 0.05:
         lobes = 2                      # heavy tails (GGX): one Taylor lobe is not enough
         sg = fit_ndf_sg(ndf, method="lm", n_lobes=lobes, seed=seed)
-    run.write_npz(f"{name}/ndf_sg.npz", sg.arrays())
+    artifacts.write_ndf_sg(run, name, sg.arrays())
     rep = {"lobes": lobes, "method": sg.method, "rel_l2": sg.rel_l2,
            "sharpness": sg.sharpness, "amplitude": sg.amplitude, "axis": sg.axis}
     an = analytic_ndf_sg(ndf)
@@ -155,12 +140,8 @@ def write_view_gmm(run, name: str, brdf, spec, seed: int, ndf_rep: dict) -> dict
               n_lobes=spec.lobes, n_samples=spec.samples, max_iter=spec.iterations,
               tol=spec.tolerance, align=spec.align, seed=seed, include_diffuse=include_diffuse)
     gmm = fit_view_gmm(brdf, coherent=spec.coherent, **kw)
-    run.write_npz(f"{name}/view_gmm.npz", gmm.arrays())
-    run.write_exr(f"{name}/view_gmm.exr", gmm.texture(),
-                  channel_names=["R", "G", "B", "kappa", "mu_phi", "mu_theta"],
-                  metadata={"lobes": spec.lobes, "view_theta_max": float(np.radians(
-                      spec.theta_max_deg)), "theta_count": spec.theta_count, "phi_count": n_phi,
-                      "coherent": int(spec.coherent), "includes_diffuse": int(include_diffuse)})
+    artifacts.write_view_gmm(run, name, _view_gmm_fields(gmm),
+                             view_theta_max=np.radians(spec.theta_max_deg))
     th_deg = np.degrees(gmm.view_theta)
     per_view = gmm.rel_l2.reshape(len(gmm.view_theta), n_phi).max(axis=1)
     rep = {"lobes": spec.lobes, "samples": spec.samples, "views": int(gmm.view_dirs.shape[0]),
@@ -181,9 +162,10 @@ def write_view_gmm(run, name: str, brdf, spec, seed: int, ndf_rep: dict) -> dict
     if "curve" in ndf_rep:
         series.append((ndf_rep["curve"]["lobes"], ndf_rep["curve"]["rel_l2"]))
     if series:
-        run.write_png(f"{name}/error_vs_lobes.png", plot_curves(series))
+        run.write_png(artifacts.material_file(name, artifacts.ERROR_PLOT), plot_curves(series))
     if len(thetas):
-        run.write_png(f"{name}/slices.png", slice_panels(slice_images(brdf, gmm, thetas)))
+        run.write_png(artifacts.material_file(name, artifacts.SLICES),
+                      slice_panels(slice_images(brdf, gmm, thetas)))
     if spec.holdout and spec.theta_count > 1:
         th_h, err = interpolation_errors(brdf, gmm)
         key = "coherent" if spec.coherent else "independent"
@@ -196,3 +178,13 @@ def write_view_gmm(run, name: str, brdf, spec, seed: int, ndf_rep: dict) -> dict
                 rep["interpolation"][f"{k}_mean"] = float(np.mean(rep["interpolation"][k]))
     rep["albedo_lum"] = gmm.albedo @ LUMINANCE
     return rep
+
+
+def _view_gmm_fields(gmm) -> dict:
+    """The fit's values under the `view_gmm.npz` names, unrounded (the writer stores float32;
+    the texture preview is made from these)."""
+    th, ph = gmm.mu_angles()
+    return {"view_theta": gmm.view_theta, "view_phi": gmm.view_phi, "view_dirs": gmm.view_dirs,
+            "alpha": gmm.alpha, "kappa": gmm.kappa, "mu": gmm.mu, "mu_theta": th, "mu_phi": ph,
+            "albedo": gmm.albedo, "rel_l2": gmm.rel_l2,
+            "includes_diffuse": gmm.includes_diffuse, "coherent": gmm.coherent}

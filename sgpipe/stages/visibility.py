@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sgpipe.artifacts import visibility as artifacts
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
 from sgpipe.io.mesh import MeshGeometry, load_scene
@@ -102,7 +103,7 @@ def _run(cfg, run: StageRun, tmp: Path) -> None:
                                                           "fully_occluded")}
                              for name, o in summary["objects"].items()}
     run.report["products"] = summary["products_all_objects"]
-    run.write_json("report.json", summary)
+    run.write_json(artifacts.REPORT, summary)
     run.timings["main_cpu_s"] = time.process_time() - cpu0
 
 
@@ -118,28 +119,20 @@ def _write_object(run: StageRun, cfg, g: MeshGeometry, pca, X, frac, scene, offs
     v = cfg.visibility
     res = v.resolution
     name = g.name
-    run.write_npz(f"{name}/geometry.npz", {
-        "positions": g.positions.astype(np.float32), "normals": g.normals.astype(np.float32),
-        "tangents": g.tangents.astype(np.float32), "bitangents": g.bitangents.astype(np.float32),
-        "faces": g.faces.astype(np.int32), "uvs": g.uvs.astype(np.float32),
-        "has_uvs": np.int32(g.has_uvs), "ray_offset": np.float32(offset)})
+    artifacts.write_geometry(run, name, positions=g.positions, normals=g.normals,
+                             tangents=g.tangents, bitangents=g.bitangents, faces=g.faces,
+                             uvs=g.uvs, has_uvs=g.has_uvs, ray_offset=offset)
     nterm = pca.basis.shape[0]
     mean = pca.mean.reshape(res, res).astype(np.float32)
     basis = pca.basis.reshape(nterm, res, res).astype(np.float32)
     coeffs = pca.coeffs.astype(np.float32)
-    run.write_npz(f"{name}/ssdf_pca.npz", {
-        "mean": mean, "basis": basis, "coeffs": coeffs,
-        "explained_variance": pca.explained_variance.astype(np.float32),
-        "resolution": np.int32(res), "trace_resolution": np.int32(v.trace_resolution),
-        "max_distance": np.float32(max_d)})
-    meta = {"object": name, "resolution": res, "max_distance": max_d}
-    run.write_exr(f"{name}/eigen/ssdf_mean.exr", mean, png=False, metadata=meta)
-    run.write_png(f"{name}/eigen/ssdf_mean.png", vreport.signed_preview(mean, max_d))
-    for j in range(nterm):
-        run.write_exr(f"{name}/eigen/ssdf_eigen_{j:02d}.exr", basis[j], png=False,
-                      metadata={**meta, "term": j})
-        run.write_png(f"{name}/eigen/ssdf_eigen_{j:02d}.png",
-                      vreport.signed_preview(basis[j], float(np.abs(basis[j]).max())))
+    artifacts.write_ssdf_pca(run, name, mean=mean, basis=basis, coeffs=coeffs,
+                             explained_variance=pca.explained_variance, resolution=res,
+                             trace_resolution=v.trace_resolution, max_distance=max_d)
+    for j in [None, *range(nterm)]:
+        img, scale = (mean, max_d) if j is None else (basis[j], float(np.abs(basis[j]).max()))
+        run.write_png(artifacts.object_file(name, artifacts.eigen_name(j, "png")),
+                      vreport.signed_preview(img, scale))
 
     seed = cfg.seed * 7919 + k
     rep_idx = vreport.pick_vertices(frac, v.report_vertices, seed)
@@ -158,7 +151,7 @@ def _write_object(run: StageRun, cfg, g: MeshGeometry, pca, X, frac, scene, offs
                                res=v.resolution, margin=v.adaptive_margin)
         raw = np.asarray(X[i], np.float64).reshape(res, res)
         rec = np.clip(pca.reconstruct(int(i)).reshape(res, res), -max_d, max_d)
-        run.write_png(f"{name}/previews/vertex_{int(i):05d}.png",
+        run.write_png(artifacts.object_file(name, artifacts.preview_name(int(i))),
                       vreport.vertex_panel(downsample_visibility(vis, res), raw, rec, max_d))
     sub = np.unique(np.linspace(0, len(frac) - 1, min(len(frac), 512)).astype(np.int64))
     pca_err = vreport.pca_error_vs_terms(pca, np.asarray(X[sub]), sub)

@@ -6,6 +6,7 @@ import sys
 import numpy as np
 import pytest
 
+from sgpipe.artifacts import envmap as art
 from sgpipe.config import load_config
 from sgpipe.core.maps import latlong_texel_dirs
 from sgpipe.envmap import store
@@ -52,6 +53,7 @@ def test_artifacts_follow_the_contract(env_run):
                  "mip/cube_00.exr", "mip/cube_04.exr", "mip/dp_00.exr", "manifest.json"):
         assert (f / name).is_file(), name
     fits = store.load_light_fits(f)
+    assert art.read_irradiance(f).shape == (8, 16, 3)
     assert fits["sg"].axes.shape == (3, 3) and fits["sh"]["coeffs"].shape == (25, 3)
     man = json.loads((f / "manifest.json").read_text())
     assert max(man["report"]["sg_light_irradiance_rel_err"]) < 0.05

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import yaml
 
+from sgpipe.artifacts import fit as contract
 from sgpipe.brdf import write_merl
 from sgpipe.cli import main
 from sgpipe.io import read_exr, read_npz
@@ -64,6 +65,11 @@ def test_fit_writes_the_contract(tmp_path, capsys):
         for f in ("report.json", "error_vs_lobes.png", "slices.png", "view_gmm.png"):
             assert (fit / name / f).is_file()
     assert read_npz(fit / "chalk" / "view_gmm.npz")["includes_diffuse"].item() == 1
+    # the renderer's readers accept what the stage wrote
+    assert contract.read_materials_index(fit) == ["ward", "brushed", "chalk"]
+    assert contract.read_microfacet(fit / "ward", "ward").shadowing == 5
+    assert contract.read_ndf_sg(fit / "brushed", "brushed").axis.shape == (8, 3)
+    assert contract.read_view_gmm(fit / "brushed", "brushed")["kappa"].shape == (6, 4)
     rep = json.loads((fit / "ward" / "report.json").read_text())
     assert len(rep["view_gmm"]["curve"]["rel_l2_mean"]) == 2
     assert "independent_mean" in rep["view_gmm"]["interpolation"]

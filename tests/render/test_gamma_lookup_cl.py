@@ -177,11 +177,11 @@ def test_load_reads_coef_and_slope_files(tmp_path, pyramid_points):
     """EnvData.load packs coef_LL / slope_LL and the point set exactly as written by the
     envmap contract."""
     store = pytest.importorskip("sgpipe.envmap.store")
+    from sgpipe.artifacts import FolderSink
+    from sgpipe.artifacts.envmap import write_pyramid
     from sgpipe.io import write_exr, write_npz
     pyr = pyramid_points
-    for name, img, meta, _ in store.pyramid_files(pyr):
-        write_exr(tmp_path / name, img, metadata=meta)
-    write_npz(tmp_path / "pyramid.npz", store.pyramid_index(pyr))
+    write_pyramid(FolderSink(tmp_path), store.pyramid_artifacts(pyr))
     (tmp_path / "mip").mkdir()
     write_exr(tmp_path / "mip" / "cube_00.exr", np.ones((18, 3, 3), np.float32))
     write_npz(tmp_path / "mip.npz", {"cube_res": np.array([1], np.int32)})

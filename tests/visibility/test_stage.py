@@ -6,6 +6,7 @@ import textwrap
 import numpy as np
 import pytest
 
+from sgpipe.artifacts import visibility as contract
 from sgpipe.config import load_config
 from sgpipe.errors import BadInput
 from sgpipe.io import read_exr, read_npz
@@ -79,6 +80,9 @@ def test_artifacts_follow_the_contract_and_decode_exactly(tmp_path):
     assert (vis_dir / "ball/eigen/ssdf_eigen_03.png").is_file()
     assert len(list((vis_dir / "floor/previews").glob("vertex_*.png"))) == 2
     assert "ball/ssdf_pca.npz" in man["outputs"]
+    # the renderer's readers accept what the stage wrote
+    assert contract.read_geometry(vis_dir, "ball").faces.shape == geo["faces"].shape
+    assert contract.read_ssdf_pca(vis_dir, "ball").basis.shape == (12, 8, 8)
     # all terms kept (12 vertices) => the decoder reproduces a direct trace at texel centres
     floor = read_npz(vis_dir / "floor/geometry.npz")
     tri = np.concatenate([floor["positions"][floor["faces"]], geo["positions"][geo["faces"]]])

@@ -1,0 +1,187 @@
+"""The fit stage's artifacts (`<out>/fit/`, docs/ARTIFACTS.md fit/): per material
+`<material>/` the microfacet factor M_o (Wang09 eq 9), the NDF SG lobes (Wang09 eq 12/16), the
+per-view vMF mixtures (paper 000 eq 3) and, for MERL, the tabulated model (Wang09 eq 13–14);
+`materials.json` lists the materials in config order."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sgpipe.artifacts._common import cast, scalar, shaped
+from sgpipe.errors import BadInput
+from sgpipe.io import read_npz
+
+MATERIALS_INDEX = "materials.json"
+MICROFACET = "microfacet.npz"
+MICROFACET_JSON = "microfacet.json"     # the same values with the kinds' names
+NDF_SG = "ndf_sg.npz"
+VIEW_GMM = "view_gmm.npz"
+VIEW_GMM_TEXTURE = "view_gmm.exr"
+TABULATED = "tabulated.npz"
+REPORT = "report.json"
+ERROR_PLOT = "error_vs_lobes.png"
+SLICES = "slices.png"
+
+SHADOW_BINS = 90          # shadow_table: S(θ) at θ_k = (k + 0.5)·π/180
+#: view_gmm.exr channels in order (OpenEXR sorts channels alphabetically; these names keep it)
+VIEW_GMM_CHANNELS = ["R", "G", "B", "kappa", "mu_phi", "mu_theta"]
+
+f32, i32 = np.float32, np.int32
+NDF_SG_ARRAYS = {"axis": f32, "sharpness": f32, "amplitude": f32, "rel_l2": f32, "method": None}
+VIEW_GMM_ARRAYS = {"view_theta": f32, "view_phi": f32, "view_dirs": f32, "alpha": f32,
+                   "kappa": f32, "mu": f32, "mu_theta": f32, "mu_phi": f32, "albedo": f32,
+                   "rel_l2": f32, "includes_diffuse": i32, "coherent": i32}
+TABULATED_ARRAYS = {"ndf_theta_h": f32, "ndf_table": f32, "shadow_table": f32,
+                    "shadow_pca_mean": f32, "shadow_pca_basis": f32, "shadow_pca_coeffs": f32,
+                    "eta": f32}
+_KIND_FIELDS = ("diffuse", "fresnel", "shadowing")     # int32 enums (their names: `*_kind`)
+
+
+def material_file(material: str, name: str) -> str:
+    """Path of one of a material's files relative to `<out>/fit/`."""
+    return f"{material}/{name}"
+
+
+def _key(material: str) -> str:
+    return f"fit.materials.{material}"
+
+
+# -- writers (the fit stage) ------------------------------------------------------------------
+def write_materials_index(sink, names: list[str]) -> None:
+    sink.write_json(MATERIALS_INDEX, {"materials": list(names)})
+
+
+def write_microfacet(sink, material: str, params: dict) -> None:
+    """`microfacet.npz` (numbers: float32, the kinds int32, `model` a string) and
+    `microfacet.json` (the same with the kinds' names) from `BRDF.microfacet_params()`."""
+    arrays = {}
+    for k, v in params.items():
+        if k.endswith("_kind"):
+            continue
+        if k == "model":
+            arrays[k] = np.array(v)
+        elif isinstance(v, (int, np.integer)) and k in _KIND_FIELDS:
+            arrays[k] = np.int32(v)
+        else:
+            arrays[k] = np.asarray(v, f32)
+    sink.write_npz(material_file(material, MICROFACET), arrays)
+    sink.write_json(material_file(material, MICROFACET_JSON), params)
+
+
+def write_ndf_sg(sink, material: str, arrays: dict) -> None:
+    """`ndf_sg.npz`: axis (L, 3), sharpness (L,), amplitude (L,), rel_l2, method (L may be 0)."""
+    sink.write_npz(material_file(material, NDF_SG), cast(arrays, NDF_SG_ARRAYS, NDF_SG))
+
+
+def write_tabulated(sink, material: str, arrays: dict) -> None:
+    """`tabulated.npz` (MERL materials): NDF and shadowing tables, shadowing PCA, η."""
+    sink.write_npz(material_file(material, TABULATED), cast(arrays, TABULATED_ARRAYS, TABULATED))
+
+
+def write_view_gmm(sink, material: str, arrays: dict, *, view_theta_max: float) -> None:
+    """`view_gmm.npz` (float32, flags int32) and the same data as the `view_gmm.exr` texture:
+    row t, column p·K + k holds view j = t·Nφ + p, lobe k (channels VIEW_GMM_CHANNELS). The
+    texture and its preview are made from `arrays` as given (the fit's float64 values)."""
+    a = {k: np.asarray(v) for k, v in arrays.items()}
+    sink.write_npz(material_file(material, VIEW_GMM), cast(a, VIEW_GMM_ARRAYS, VIEW_GMM))
+    n_t, n_p = len(a["view_theta"]), len(a["view_phi"])
+    k = a["alpha"].shape[1]
+    tex = np.concatenate([a["alpha"], a["kappa"][..., None], a["mu_phi"][..., None],
+                          a["mu_theta"][..., None]], axis=-1).reshape(n_t, n_p * k, 6)
+    sink.write_exr(material_file(material, VIEW_GMM_TEXTURE), tex,
+                   channel_names=VIEW_GMM_CHANNELS,
+                   metadata={"lobes": k, "view_theta_max": float(view_theta_max),
+                             "theta_count": n_t, "phi_count": n_p,
+                             "coherent": int(a["coherent"]),
+                             "includes_diffuse": int(a["includes_diffuse"])})
+
+
+# -- readers (the renderer, tests) ------------------------------------------------------------
+def read_materials_index(fit_dir: str | Path) -> list[str]:
+    path = Path(fit_dir) / MATERIALS_INDEX
+    if not path.is_file():
+        raise BadInput("file not found", file=path, key="fit.materials")
+    try:
+        names = json.loads(path.read_text())["materials"]
+    except (ValueError, KeyError, TypeError) as e:
+        raise BadInput(f"not a materials index ({type(e).__name__}: {e})", file=path,
+                       key="fit.materials") from None
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        raise BadInput("'materials' is not a list of names", file=path, key="fit.materials")
+    return names
+
+
+@dataclass
+class Microfacet:
+    """What evaluates M_o(i) = ks·g_scale·F(o·h)·G2(o,i)/(π (n·i)(n·o)) (Wang09 eq 9)."""
+
+    kd: np.ndarray                      # (3,)
+    ks: np.ndarray                      # (3,)
+    g_scale: float
+    diffuse: int
+    fresnel: int
+    shadowing: int
+    f0: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    eta: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    k: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    alpha_u: float = 0.0
+    alpha_v: float = 0.0
+    shadow_table: np.ndarray = field(default_factory=lambda: np.ones(SHADOW_BINS))
+
+
+def read_microfacet(folder: str | Path, material: str) -> Microfacet:
+    """`<folder>/microfacet.npz` of one material (`folder` = `<out>/fit/<material>`)."""
+    path = Path(folder) / MICROFACET
+    key = _key(material)
+    z = read_npz(path, key=key, required=("kd", "ks", "g_scale", "diffuse", "fresnel",
+                                          "shadowing"))
+    opt = {k: shaped(z[k], (3,), k, path, key) for k in ("f0", "eta", "k") if k in z}
+    opt.update({k: scalar(z[k]) for k in ("alpha_u", "alpha_v") if k in z})
+    if "shadow_table" in z:
+        opt["shadow_table"] = shaped(z["shadow_table"], (-1,), "shadow_table", path, key)
+    return Microfacet(kd=shaped(z["kd"], (3,), "kd", path, key),
+                      ks=shaped(z["ks"], (3,), "ks", path, key), g_scale=scalar(z["g_scale"]),
+                      **{k: int(scalar(z[k])) for k in _KIND_FIELDS}, **opt)
+
+
+@dataclass
+class NdfLobes:
+    """D(h) ≈ Σ_l amplitude_l e^{sharpness_l (h·axis_l − 1)} in the local frame."""
+
+    axis: np.ndarray                    # (L, 3)
+    sharpness: np.ndarray               # (L,)
+    amplitude: np.ndarray               # (L,)
+
+
+def read_ndf_sg(folder: str | Path, material: str) -> NdfLobes:
+    path = Path(folder) / NDF_SG
+    key = _key(material)
+    z = read_npz(path, key=key, required=("axis", "sharpness", "amplitude"))
+    lam = shaped(z["sharpness"], (-1,), "sharpness", path, key)
+    return NdfLobes(axis=shaped(z["axis"], (len(lam), 3), "axis", path, key), sharpness=lam,
+                    amplitude=shaped(z["amplitude"], (len(lam),), "amplitude", path, key))
+
+
+def read_view_gmm(folder: str | Path, material: str) -> dict:
+    """`view_gmm.npz` arrays, their shapes checked: alpha (J, K, 3), kappa / mu_theta / mu_phi
+    (J, K) with J = Nθ·Nφ."""
+    path = Path(folder) / VIEW_GMM
+    key = _key(material)
+    z = read_npz(path, key=key, required=("view_theta", "view_phi", "alpha", "kappa",
+                                          "mu_theta", "mu_phi", "includes_diffuse",
+                                          "coherent"))
+    j = np.size(z["view_theta"]) * np.size(z["view_phi"])
+    k = np.shape(z["alpha"])[1] if np.ndim(z["alpha"]) == 3 else -1
+    shaped(z["alpha"], (j, k, 3), "alpha", path, key)
+    for name in ("kappa", "mu_theta", "mu_phi"):
+        shaped(z[name], (j, k), name, path, key)
+    return z
+
+
+def read_tabulated(folder: str | Path, material: str) -> dict:
+    return read_npz(Path(folder) / TABULATED, key=_key(material),
+                    required=tuple(TABULATED_ARRAYS))
