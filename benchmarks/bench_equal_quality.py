@@ -52,9 +52,9 @@ def _sg_through_stages(cfg_for, out: Path):
 
 def main() -> int:
     from sgpipe.experiments.figures import DATA, build_config
+    from sgpipe.metrics import PSNR_PEAK, mse, psnr
     from sgpipe.parallel import default_workers
-    from sgpipe.render.metrics import PSNR_PEAK, mse, psnr
-    from sgpipe.render.reference import reference_from_config
+    from sgpipe.stages.render import reference_from_config
 
     mats = [{"name": "ward", "model": "ward", "params": {"alpha": 0.1, "kd": 0.0, "ks": 1.0}}]
 

@@ -30,11 +30,11 @@ FPS_TARGET = 5.0
 def _teapot_scene(width=512, height=512, nv=48, res=32, env_lobes=8):
     from sgpipe.brdf import make_brdf
     from sgpipe.io.mesh import build_mesh, _read_mesh_file
-    from sgpipe.render.camera import Camera
     from sgpipe.render.envdata import CubeChain, EnvData
-    from sgpipe.render.gbuffer import TraceObject
     from sgpipe.render.materials import Material, pack_materials
     from sgpipe.render.renderer import Light, ObjectShading, Renderer, VisObject
+    from sgpipe.scene.camera import Camera
+    from sgpipe.scene.gbuffer import TraceObject
     rng = np.random.default_rng(0)
     objs, shading = [], []
     teapot = make_brdf("cook_torrance", {"m": 0.2, "kd": [0.3, 0.1, 0.05], "ks": 1.0})
@@ -80,8 +80,8 @@ def _time(fn, repeats):
 
 
 def bench_fps(repeats=5) -> dict:
-    from sgpipe.render.gbuffer import Tracer
     from sgpipe.render.renderer import Frame
+    from sgpipe.scene.gbuffer import Tracer
     r, objs, cam = _teapot_scene()
     t0 = time.perf_counter()
     o, d = cam.rays()

@@ -7,6 +7,7 @@ import importlib
 import click
 import numpy as np
 
+
 def check_opencl() -> tuple[bool, list[str]]:
     """List platforms/devices, then build and run a tiny kernel on the device the renderer
     uses (`sgpipe.render.opencl.pick_device`)."""

@@ -5,6 +5,7 @@ from the surface; arrays of directions have shape (..., 3) and broadcast against
 
     from sgpipe.brdf import make_brdf, REGISTRY, load_merl
     brdf = make_brdf("ggx", {"alpha": 0.2, "kd": 0.1, "fresnel": "schlick", "f0": 0.04})
+    brdf = brdf_from_spec(cfg.fit.materials[0])   # a config material (model, params, merl_file)
     rho = brdf.eval(o, i)                 # ρ(o, i) RGB (..., 3), NO cosine; 0 below horizon
     i, pdf = brdf.sample(o, u1, u2)       # importance sample (diffuse + NDF mixture); pdf in sr⁻¹,
                                           # pdf == 0 marks a failed sample (skip it)
@@ -70,7 +71,16 @@ def make_brdf(model: str, params: dict | None = None) -> BRDF:
     return REGISTRY[model](dict(params or {}))
 
 
-__all__ = ["BRDF", "BRDFParamError", "REGISTRY", "make_brdf", "load_merl", "MerlBRDF",
-           "read_merl", "write_merl", "synthesize_merl", "fit_tabulated", "tabulated_brdf",
-           "Fresnel", "fresnel_schlick", "fresnel_dielectric", "fresnel_conductor",
-           "half_vector", "reflect", "LUMINANCE"]
+def brdf_from_spec(spec) -> BRDF:
+    """The BRDF of a `fit.materials` entry (its model, params and merl_file): the one way from a
+    material spec to a BRDF; errors as make_brdf's."""
+    params = dict(spec.params or {})
+    if spec.merl_file:
+        params["merl_file"] = str(spec.merl_file)
+    return make_brdf(spec.model, params)
+
+
+__all__ = ["BRDF", "BRDFParamError", "REGISTRY", "make_brdf", "brdf_from_spec", "load_merl",
+           "MerlBRDF", "read_merl", "write_merl", "synthesize_merl", "fit_tabulated",
+           "tabulated_brdf", "Fresnel", "fresnel_schlick", "fresnel_dielectric",
+           "fresnel_conductor", "half_vector", "reflect", "LUMINANCE"]

@@ -107,7 +107,7 @@ def _render_method(cfg, out: Path, method: str) -> dict:
 def _noise_floor(ref: dict, exposure: float) -> None:
     """Reference noise as PSNRs: linear 10 log10(1/mean σ²) and a first-order estimate for the
     display transform (σ × d sRGB(x)/dx, zero where the preview clips)."""
-    from sgpipe.render.metrics import PSNR_PEAK
+    from sgpipe.metrics import PSNR_PEAK
     sig = ref.get("stderr_map")
     if sig is None:
         return
@@ -125,7 +125,7 @@ def _noise_floor(ref: dict, exposure: float) -> None:
 def _direct_reference(cfg) -> dict:
     """Fallback when the render stage cannot run `reference` (e.g. upstream stages missing):
     the same renderer called directly (`reference_from_config`)."""
-    from sgpipe.render.reference import reference_from_config
+    from sgpipe.stages.render import reference_from_config
     r = reference_from_config(cfg)
     return {"image": r.image, "ms": 1e3 * r.seconds, "stderr": float(np.mean(r.stderr)),
             "stderr_map": r.stderr, "samples_per_s": r.samples_per_s}
@@ -134,7 +134,7 @@ def _direct_reference(cfg) -> dict:
 def run_env(env: str, out: Path, mats: list[dict], *, size: int, spp: int, seed: int,
             workers: int, methods=METHODS) -> dict:
     """All materials × methods under one environment → {material: {method: result}}."""
-    from sgpipe.render.metrics import compare_images, psnr_display
+    from sgpipe.metrics import compare_images, psnr_display
     env_path = DATA / f"{env}.exr"
     out.mkdir(parents=True, exist_ok=True)
     cfg0 = build_config(env_path, mats, mats[0]["name"], ["reference"], size=size, spp=spp,

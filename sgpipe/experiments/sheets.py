@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from sgpipe.io import tonemap_srgb, write_png
-from sgpipe.render.metrics import PSNR_PEAK, difference_scale, false_color_difference
+from sgpipe.metrics import PSNR_PEAK, difference_scale, false_color_difference
 
 GAP = 2
 
@@ -85,7 +85,7 @@ def write_results_md(path: Path, per_env: dict, mats: list[dict], methods, sheet
          f"frame; the sphere covers ≈{100 * _coverage(16.0, 4.0):.0f}% of it). "
          f"Materials: kd = 0, ks = 1, no Fresnel. `reference` = Monte Carlo with MIS, "
          f"{spp} spp, seed {seed}. PSNR = 10 log10(peak²/MSE) on linear RGB radiance, peak "
-         f"{PSNR_PEAK:g}; SSIM on luminance (Gaussian σ = 1.5); see `sgpipe.render.metrics`. "
+         f"{PSNR_PEAK:g}; SSIM on luminance (Gaussian σ = 1.5); see `sgpipe.metrics`. "
          "ms/frame: the render stage's warm per-frame time (`<method>_s` in timings.json); for "
          "`reference` the whole Monte Carlo render. `Ref. noise` = PSNR of the reference's own "
          "Monte Carlo error, 10 log10(peak²/mean stderr²) (display: first-order estimate "

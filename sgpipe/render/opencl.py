@@ -6,7 +6,9 @@ builds per (context, program, options).
     prg.sg_shade(queue, (n,), None, *buffers)
 
 Kernels live in `sgpipe/render/kernels/<name>.cl`; shared math in `kernels/include/*.h`,
-reached with `-I` (pyopencl's compiler cache hashes included headers too). A missing OpenCL
+reached with `-I`, and headers generated from Python (record layouts, parameter lists, f_h
+table: sgpipe.render.headers) in a second `-I` folder (pyopencl's compiler cache hashes
+included headers too). A missing OpenCL
 device is user-environment trouble: `BadInput` with the apt command that fixes it.
 """
 
@@ -129,10 +131,12 @@ def generated_include_dir(headers: dict[str, str]) -> Path:
 def build_program(ctx, name: str, defines: dict | None = None, extra: tuple[str, ...] = (),
                   headers: dict[str, str] | None = None):
     """Build (once per context and options) the program `kernels/<name>.cl`; `headers` are
-    generated include files (name → source), reached through an extra `-I`."""
+    generated include files (name → source) besides the record layouts and parameter lists
+    every build gets (headers.layout_headers), reached through an extra `-I`."""
+    from sgpipe.render.headers import layout_headers
     cl = _cl()
-    if headers:
-        extra = ("-I", str(generated_include_dir(headers))) + tuple(extra)
+    extra = ("-I", str(generated_include_dir({**layout_headers(), **(headers or {})}))) + \
+        tuple(extra)
     opts = build_options(defines, extra)
     key = (id(ctx), name, opts)
     with _LOCK:

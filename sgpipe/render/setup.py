@@ -11,10 +11,11 @@ import numpy as np
 from sgpipe.errors import BadInput
 from sgpipe.io import read_exr
 from sgpipe.render.envdata import EnvData
-from sgpipe.render.gbuffer import TraceObject
 from sgpipe.render.materials import Material, pack_materials
+from sgpipe.render.methods import Method
 from sgpipe.render.renderer import Light, ObjectShading, Renderer, Textures
 from sgpipe.render.scene import load_trace_objects, load_vis_objects
+from sgpipe.scene.gbuffer import TraceObject
 
 
 @dataclass
@@ -35,19 +36,6 @@ def lights_of(rs) -> list[Light]:
             d = np.asarray(L.direction, float)
             out.append(Light("directional", tuple(d / np.linalg.norm(d)), tuple(L.intensity),
                              L.radius))
-    return out
-
-
-def reference_lights(rs) -> list[dict]:
-    """Config lights as the Monte Carlo reference reads them (delta lights)."""
-    out = []
-    for L in rs.lights:
-        if L.type == "point":
-            out.append({"type": "point", "position": list(L.position),
-                        "intensity": list(L.intensity)})
-        else:
-            out.append({"type": "directional", "direction": list(L.direction),
-                        "irradiance": list(L.intensity)})
     return out
 
 
@@ -73,44 +61,35 @@ def _read_ldr(path, key) -> np.ndarray:
     return img if img.ndim == 3 else img[..., None]
 
 
-def build_scene(cfg, out_dir: str | Path, methods: list[str]) -> SceneBundle:
-    """Everything the shading methods need, read from `out_dir`'s upstream stage folders."""
+def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
+    """Everything the shading `methods` need, read from `out_dir`'s upstream stage folders."""
     out_dir = Path(out_dir)
     rs = cfg.render
     if cfg.scene is None or not cfg.scene.objects:
         raise BadInput("the scene has no objects to render", key="scene.objects")
-    scale = float(2.0 ** rs.environment_exposure)
-    env_dir = out_dir / "envmap"
-    if cfg.envmap is None:
-        env = EnvData.constant(0.0)
-        latlong = None
-    else:
-        env = EnvData.load(env_dir)
-        latlong = _image(cfg.envmap.environment, "envmap.environment") * scale
+    env = EnvData.constant(0.0) if cfg.envmap is None else EnvData.load(out_dir / "envmap")
     vis_dir = out_dir / "visibility" if cfg.visibility is not None else None
     if vis_dir is not None and not vis_dir.is_dir():
         raise BadInput("visibility artifacts not found (run `sgpipe precompute` first)",
                        file=vis_dir, key="visibility")
     objects = load_trace_objects(cfg, vis_dir)
     vis = load_vis_objects(cfg, vis_dir)
-    specs = {m.name: m for m in (cfg.fit.materials if cfg.fit is not None else [])}
+    specs = object_material_specs(cfg)
     textures = Textures()
     tex_by_mat = {t.material: t for t in rs.material_textures}
+    defined = {m.name for m in (cfg.fit.materials if cfg.fit is not None else [])}
     for name in tex_by_mat:
-        if name not in specs:
+        if name not in defined:
             raise BadInput(f"material {name!r} is not defined in fit.materials",
                            key="render.material_textures")
     names, mats = [], []
-    for k, o in enumerate(cfg.scene.objects):
-        if o.material not in specs:
-            raise BadInput(f"material {o.material!r} is not defined in fit.materials",
-                           file=getattr(cfg, "source", None), key=f"scene.objects.{k}.material")
+    for o, spec in zip(cfg.scene.objects, specs):
         if o.material in names:
             continue
         m = Material.load(out_dir / "fit" / o.material, o.material,
-                          need_gmm="gmm" in methods)
-        if "fis" in methods:
-            m.tabulate_ndf(_brdf_of(specs[o.material]))
+                          need_gmm=any(x.needs_view_gmm for x in methods))
+        if any(x.needs_ndf_table for x in methods):
+            m.tabulate_ndf(material_brdf(spec))
         t = tex_by_mat.get(o.material)
         if t is not None and t.kd_map:
             m.kd_texture = textures.add(_image(t.kd_map, "render.material_textures.kd_map"))
@@ -126,19 +105,40 @@ def build_scene(cfg, out_dir: str | Path, methods: list[str]) -> SceneBundle:
         shading.append(ObjectShading(material=names.index(o.material), vis=vis[k][0],
                                      normal_map=nmap))
     renderer = Renderer(env=env, materials=pack_materials(mats), objects=shading,
-                        textures=textures, lights=lights_of(rs), env_scale=scale,
+                        textures=textures, lights=lights_of(rs), env_scale=environment_scale(cfg),
                         fh_mode=rs.fh, gmm_taps=rs.gmm_taps)
-    return SceneBundle(renderer, objects, [p for _, p in vis], latlong)
+    return SceneBundle(renderer, objects, [p for _, p in vis], environment_latlong(cfg))
 
 
-def _brdf_of(spec):
-    """The `sgpipe.brdf` BRDF of a material spec (exact D for fis)."""
-    from sgpipe.brdf import make_brdf
-    params = dict(spec.params or {})
-    if spec.merl_file:
-        params.setdefault("merl_file", str(spec.merl_file))
+def environment_scale(cfg) -> float:
+    """The environment's radiance scale of every method: 2^render.environment_exposure."""
+    return float(2.0 ** cfg.render.environment_exposure)
+
+
+def environment_latlong(cfg) -> np.ndarray | None:
+    """The config's lat-long environment × environment_scale (background, reference), or None."""
+    if cfg.envmap is None:
+        return None
+    return _image(cfg.envmap.environment, "envmap.environment") * environment_scale(cfg)
+
+
+def object_material_specs(cfg) -> list:
+    """Per scene object its `fit.materials` entry (an undefined one is BadInput naming it)."""
+    specs = {m.name: m for m in (cfg.fit.materials if cfg.fit is not None else [])}
+    out = []
+    for k, o in enumerate(cfg.scene.objects if cfg.scene is not None else []):
+        if o.material not in specs:
+            raise BadInput(f"material {o.material!r} is not defined in fit.materials",
+                           file=cfg.source, key=f"scene.objects.{k}.material")
+        out.append(specs[o.material])
+    return out
+
+
+def material_brdf(spec):
+    """The `sgpipe.brdf` BRDF of a material spec (exact D for fis, the reference's BRDF)."""
+    from sgpipe.brdf import brdf_from_spec
     try:
-        return make_brdf(spec.model, params)
+        return brdf_from_spec(spec)
     except (ValueError, TypeError) as e:
         raise BadInput(f"cannot build BRDF {spec.model!r}: {e}",
                        key=f"fit.materials.{spec.name}") from None

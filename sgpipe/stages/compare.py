@@ -1,4 +1,4 @@
-"""`sgpipe compare A.exr B.exr`: image metrics against a reference (sgpipe.render.metrics).
+"""`sgpipe compare A.exr B.exr`: image metrics against a reference (sgpipe.metrics).
 
 Two entry points:
   * `compare_cli(image, reference, as_json=False, diff_png=None)` — the CLI command: prints a
@@ -21,7 +21,7 @@ import numpy as np
 
 from sgpipe.errors import BadInput
 from sgpipe.io import read_exr, write_png
-from sgpipe.render import metrics
+from sgpipe import metrics
 
 
 def load_pair(image: str | Path, reference: str | Path) -> tuple[np.ndarray, np.ndarray]:

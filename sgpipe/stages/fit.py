@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from sgpipe.artifacts import fit as artifacts
-from sgpipe.brdf import LUMINANCE, REGISTRY, BRDFParamError, make_brdf
+from sgpipe.brdf import LUMINANCE, REGISTRY, BRDFParamError, brdf_from_spec
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
 from sgpipe.fit.ndf_sg import NdfSG, analytic_ndf_sg, fit_ndf_sg, ndf_error_curve
@@ -27,11 +27,8 @@ def _build_brdf(cfg, n: int, spec):
     if spec.model not in REGISTRY:
         raise BadInput(f"unknown BRDF model {spec.model!r} (known: {', '.join(sorted(REGISTRY))})",
                        file=cfg.source, key=f"{base}.model")
-    params = dict(spec.params)
-    if spec.model == "merl":
-        params["merl_file"] = str(spec.merl_file)
     try:
-        brdf = make_brdf(spec.model, params)
+        brdf = brdf_from_spec(spec)
     except BRDFParamError as e:
         key = f"{base}.merl_file" if e.param == "merl_file" else f"{base}.params.{e.param}"
         raise BadInput(e.message, file=cfg.source, key=key) from None

@@ -1,9 +1,11 @@
 """The render stage: `cfg.render` → `<out>/render/` (docs/ARTIFACTS.md render/).
 
-Primary visibility once (Embree G-buffer), then every method of `render.methods`: `sg`, `gmm`,
-`fis` shade the G-buffer with OpenCL kernels; `reference` is the Monte Carlo ground truth of
-`sgpipe.render.reference`. Each image is written as linear EXR + PNG preview; timings go to
-timings.json (wall clock), image statistics and comparisons to the manifest report.
+Primary visibility once (Embree G-buffer, sgpipe.scene), then every method of `render.methods`:
+the OpenCL methods of the registry (sgpipe.render.methods: `sg`, `gmm`, `fis`) shade the
+G-buffer; `reference` is the Monte Carlo ground truth of sgpipe.reference, reached from a config
+through `reference_from_config` (the one path, also the experiments'). Each image is written as
+linear EXR + PNG preview; timings go to timings.json (wall clock), image statistics and
+comparisons (sgpipe.metrics) to the manifest report.
 """
 
 from __future__ import annotations
@@ -16,9 +18,6 @@ import numpy as np
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
 from sgpipe.stages.base import StageRun, log
-
-SHADERS = ("sg", "gmm", "fis")
-
 
 def _inputs(cfg, out_dir: Path) -> list[Path]:
     """Upstream manifests (they hash every artifact) and the files the scene names."""
@@ -52,10 +51,13 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     if cfg.render is None:
         log("[render] no 'render:' section in the config; nothing to do")
         return None
-    from sgpipe.render.camera import Camera
-    from sgpipe.render.gbuffer import Tracer
+    from sgpipe.render.methods import METHODS
+    from sgpipe.render.records import KernelFlag
     from sgpipe.render.renderer import Frame
-    from sgpipe.render.setup import build_scene, latlong_lookup, reference_lights
+    from sgpipe.render.scene import ssdf_triangles
+    from sgpipe.render.setup import build_scene, latlong_lookup
+    from sgpipe.scene.camera import Camera
+    from sgpipe.scene.gbuffer import Tracer
 
     out_dir = Path(out_dir)
     rs = cfg.render
@@ -70,16 +72,15 @@ def run(cfg, out_dir: Path, *, force: bool = False):
                   force=force) as run:
         if run.skipped:
             return run
-        shaders = [m for m in rs.methods if m in SHADERS]
+        shaders = [METHODS[m] for m in rs.methods if m in METHODS]
         t0 = time.perf_counter()
-        bundle = build_scene(cfg, out_dir, rs.methods)
+        bundle = build_scene(cfg, out_dir, shaders)
         run.timings["setup_s"] = time.perf_counter() - t0
         cam = Camera.from_spec(rs.camera)
         origins, dirs = cam.rays()
         t0 = time.perf_counter()
         tracer = Tracer(bundle.objects)
         gb = tracer.trace(origins, dirs)
-        from sgpipe.render.scene import ssdf_triangles
         vtri, vbary = ssdf_triangles(gb, bundle.objects, bundle.proxies)
         frame = Frame.from_gbuffer(gb, vtri, vbary)
         run.timings["gbuffer_s"] = time.perf_counter() - t0
@@ -94,12 +95,14 @@ def run(cfg, out_dir: Path, *, force: bool = False):
         images = {}
         if shaders:
             fdev = r.upload_frame(frame)
-            mip_cov = float(getattr(cfg.envmap, "mip_coverage", 0.9) or 0.9)
-            for method in shaders:
+            mip_cov = cfg.envmap.mip_coverage if cfg.envmap is not None else 0.9
+            for m in shaders:
+                method = m.name
+                unshadowed = m.baseline_shadows and not rs.baseline_shadows
                 rgb, sec = _time_method(
                     r, method, fdev, rs.timing_repeats, fis_samples=rs.fis_samples,
                     gmm_interpolate=rs.gmm_interpolate, mip_coverage=mip_cov,
-                    flags=0 if (method == "sg" or rs.baseline_shadows) else 4)
+                    flags=KernelFlag.NO_VISIBILITY if unshadowed else 0)
                 images[method] = frame.to_image(rgb, bg)
                 run.timings[f"{method}_s"] = sec
                 run.timings[f"{method}_fps"] = 1.0 / sec if sec > 0 else float("inf")
@@ -107,7 +110,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
                     f"({cam.width}x{cam.height}, {len(frame.index)} shaded pixels)")
             run.timings.update({k: v for k, v in r.timings.items()})
         if "reference" in rs.methods:
-            images["reference"] = _reference(cfg, bundle, cam, run)
+            images["reference"] = _reference(cfg, bundle, run)
         for method in rs.methods:
             img = images[method]
             run.write_exr(f"{method}.exr", img, exposure=rs.preview_exposure,
@@ -121,16 +124,36 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     return run
 
 
-def _reference(cfg, bundle, cam, run) -> np.ndarray:
-    """The other render developer's Monte Carlo reference (sgpipe.render.reference)."""
-    from sgpipe.render import reference as ref
-    from sgpipe.render.setup import reference_lights
+def reference_from_config(cfg, *, objects=None, env=None):
+    """The one config → `reference` path (sgpipe.reference.ReferenceResult): camera, scene
+    objects, environment × 2^environment_exposure, materials, lights, spp, seed, workers and
+    background of a validated config. `objects` / `env` default to what the config names
+    (meshes through their loader, the lat-long image); the stage passes its own (visibility
+    geometry, the image it already read). What the OpenCL methods honour beyond these — normal
+    maps and material textures — would enter here (render_reference_result's gbuffer= and
+    kd_scale= / ks_scale=); the reference does not take them yet."""
+    from sgpipe.reference import render_reference_result
+    from sgpipe.render.scene import load_trace_objects
+    from sgpipe.render.setup import environment_latlong, material_brdf, object_material_specs
+    from sgpipe.scene.camera import Camera
+    rs = cfg.render
+    brdfs = {}                         # one BRDF per material, shared by its objects
+    for spec in object_material_specs(cfg):
+        if spec.name not in brdfs:
+            brdfs[spec.name] = material_brdf(spec)
+    return render_reference_result(
+        load_trace_objects(cfg) if objects is None else objects, Camera.from_spec(rs.camera),
+        environment_latlong(cfg) if env is None else env,
+        materials=[brdfs[o.material] for o in cfg.scene.objects], lights=rs.lights,
+        spp=rs.spp, seed=cfg.seed, workers=cfg.workers or None,
+        background="env" if rs.background else "black")
+
+
+def _reference(cfg, bundle, run) -> np.ndarray:
+    """The `reference` image (sgpipe.reference), its time and mean standard error."""
     rs = cfg.render
     t0 = time.perf_counter()
-    res = ref.render_reference_result(
-        bundle.objects, cam, bundle.env_latlong, materials=ref.materials_for_scene(cfg),
-        lights=reference_lights(rs), spp=rs.spp, seed=cfg.seed, workers=cfg.workers or None,
-        background="env" if rs.background else "black")
+    res = reference_from_config(cfg, objects=bundle.objects, env=bundle.env_latlong)
     run.timings["reference_s"] = time.perf_counter() - t0
     run.report["reference_mean_stderr"] = float(np.mean(res.stderr))
     log(f"[render] reference: {rs.spp} spp in {run.timings['reference_s']:.1f} s")
@@ -139,16 +162,12 @@ def _reference(cfg, bundle, cam, run) -> np.ndarray:
 
 def _compare(run, images: dict, truth: str) -> None:
     """Metrics of every other method against `truth` via the compare stage's hook."""
-    from sgpipe.stages import compare as cmp
+    from sgpipe.stages.compare import compare_to_reference
     ref_path = run.path(f"{truth}.exr")
     for method, img in images.items():
         if method == truth:
             continue
-        if hasattr(cmp, "compare_to_reference"):
-            d = cmp.compare_to_reference(run, img, ref_path, method)
-            psnr = d.get("psnr_db")
-            shown = "inf (identical)" if psnr is None else f"{psnr:.2f}"
-            log(f"[render] {method} vs {truth}: PSNR {shown} dB, SSIM {d.get('ssim', 0):.4f}")
-        else:  # pragma: no cover - compare stage absent
-            err = float(np.mean((img - images[truth]) ** 2))
-            run.report.setdefault("compare", {})[method] = {"mse": err}
+        d = compare_to_reference(run, img, ref_path, method)
+        psnr = d.get("psnr_db")
+        shown = "inf (identical)" if psnr is None else f"{psnr:.2f}"
+        log(f"[render] {method} vs {truth}: PSNR {shown} dB, SSIM {d.get('ssim', 0):.4f}")

@@ -56,13 +56,13 @@ def linear_env(c0=1.0, g=(0.5, 0.3, -0.2), face_res=32, lam0=None) -> tuple[EnvD
 
 
 def selftest_program(fh_mode="sigmoid"):
-    from sgpipe.render.renderer import fh_coefficients, fh_headers
+    from sgpipe.render.headers import fh_coefficients, kernel_headers
     a, c3, c2, c1, c0 = fh_coefficients()
     ctx, q = opencl.get_context()
     d = {"NV": SELFTEST_NV, "FH_A": a, "FH_C3": c3, "FH_C2": c2, "FH_C1": c1, "FH_C0": c0}
     if fh_mode == "table":
         d["FH_TABLE"] = 1
-    prg = opencl.build_program(ctx, "selftest", d, headers=fh_headers(fh_mode))
+    prg = opencl.build_program(ctx, "selftest", d, headers=kernel_headers(fh_mode))
     return ctx, q, prg
 
 
@@ -223,21 +223,3 @@ def write_fit_artifacts(folder, name, model, params):
         "amplitude": np.array([x[1] for x in lobes], float)})
     (folder / "manifest.json").write_text("{}\n")
     return b
-
-
-def assert_estimators_agree(res, zmax=4.5):
-    """Pairwise pooled z-scores over all hit pixels and over each image quadrant (a bias
-    confined to part of the sphere shows there). Per-pixel z-scores are not used: BRDF-only and
-    env-only estimates are heavy-tailed, so their per-pixel stderr is itself unreliable."""
-    hit = res["mis"].hit
-    h, w = hit.shape
-    rows, cols = np.indices(hit.shape)
-    groups = [hit] + [hit & ((rows < h // 2) == top) & ((cols < w // 2) == left)
-                      for top in (True, False) for left in (True, False)]
-    for a, b in (("mis", "brdf"), ("mis", "env"), ("brdf", "env")):
-        for g in groups:
-            d = (res[a].image[g] - res[b].image[g]).astype(np.float64)
-            se2 = (res[a].stderr[g].astype(np.float64) ** 2
-                   + res[b].stderr[g].astype(np.float64) ** 2)
-            z = d.sum(0) / np.sqrt(se2.sum(0))
-            assert np.all(np.abs(z) < zmax), (a, b, g.sum(), z)

@@ -30,12 +30,13 @@ __kernel void t_gmm_lobe(__global const float4 *mip, __global const int *off,
 def _lobe_kernel(taps: int):
     import pyopencl as cl
 
-    from sgpipe.render.renderer import fh_coefficients
+    from sgpipe.render.headers import fh_coefficients, layout_headers
     a, c3, c2, c1, c0 = fh_coefficients()
     d = {"NV": 4, "FH_A": a, "FH_C3": c3, "FH_C2": c2, "FH_C1": c1, "FH_C0": c0,
          "MAX_GMM_LOBES": 1, "GMM_TAPS": taps}
     ctx, queue = opencl.get_context()
-    opts = opencl.build_options(d, ("-I", str(opencl.kernel_dir())))
+    gen = opencl.generated_include_dir(layout_headers())
+    opts = opencl.build_options(d, ("-I", str(opencl.kernel_dir()), "-I", str(gen)))
     prg = cl.Program(ctx, _SRC).build(options=list(opts))
     return ctx, queue, cl.Kernel(prg, "t_gmm_lobe")
 

@@ -51,10 +51,11 @@ def test_no_device_is_one_line_bad_input(monkeypatch):
 def test_shading_programs_build_on_pocl():
     from sgpipe.render.envdata import EnvData
     from sgpipe.render.materials import Material, pack_materials
+    from sgpipe.render.methods import METHODS
     from sgpipe.render.renderer import ObjectShading, Renderer
     r = Renderer(env=EnvData.constant(1.0), materials=pack_materials([Material.lambert("w", 1)]),
                  objects=[ObjectShading(0)])
-    for method in ("sg", "gmm", "fis"):
+    for method in METHODS:
         assert r.kernel(method) is r.kernel(method)
     assert "sg_build_s" in r.timings
     dev = opencl.device_name()

@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from sgpipe.render.camera import Camera
 from sgpipe.render.envdata import CubeChain, EnvData, GammaChain
-from sgpipe.render.gbuffer import TraceObject, trace_gbuffer
 from sgpipe.render.materials import Material, pack_materials
 from sgpipe.render.renderer import Frame, ObjectShading, Renderer
+from sgpipe.scene.camera import Camera
+from sgpipe.scene.gbuffer import TraceObject, trace_gbuffer
 
 pytestmark = pytest.mark.opencl
 

@@ -10,7 +10,7 @@ from sg_testlib import SELFTEST_NV, f4, linear_env, run_kernel
 from sgpipe.core import sg as csg
 from sgpipe.core.fh import fh_hat_exact, fh_hemisphere, fh_hat_sigmoid
 from sgpipe.core.maps import dir_to_cubemap
-from sgpipe.render.renderer import fh_coefficients
+from sgpipe.render.headers import fh_coefficients
 
 pytestmark = pytest.mark.opencl
 RNG = np.random.default_rng(7)

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from sg_testlib import linear_env
-from sgpipe.render.camera import Camera
 from sgpipe.render.envdata import EnvData
-from sgpipe.render.gbuffer import TraceObject, trace_gbuffer
 from sgpipe.render.materials import Material, pack_materials
 from sgpipe.render.renderer import Frame, Light, ObjectShading, Renderer, Textures
+from sgpipe.scene.camera import Camera
+from sgpipe.scene.gbuffer import TraceObject, trace_gbuffer
 
 pytestmark = pytest.mark.opencl
 

@@ -6,6 +6,10 @@ from dataclasses import dataclass
 from typing import Literal
 
 from sgpipe.config.schema import InputPath, doc
+from sgpipe.render.methods import METHOD_NAMES, METHODS
+
+#: A `render.methods` entry: an OpenCL method of the registry or the Monte Carlo `reference`.
+RenderMethod = Literal[METHOD_NAMES]
 
 
 @dataclass
@@ -58,10 +62,9 @@ class RenderSection:
     """What to render and how to compare it."""
 
     camera: CameraSpec = doc("Camera.", default_factory=CameraSpec)
-    methods: list[Literal["sg", "gmm", "fis", "reference"]] = doc(
-        "Rendering methods to run (sg: Wang09 SG + SSDF shadows; gmm: paper 000 per-view vMF "
-        "mixtures with MIP lookups; fis: Colbert–Křivánek filtered importance sampling; "
-        "reference: Monte Carlo ground truth).", default_factory=lambda: ["sg"])
+    methods: list[RenderMethod] = doc(
+        "Rendering methods to run (" + "; ".join(f"{m.name}: {m.summary}" for m in METHODS.values())
+        + "; reference: Monte Carlo ground truth).", default_factory=lambda: ["sg"])
     lights: list[LightSpec] = doc("Point / directional lights added to the environment.",
                                   default_factory=list)
     environment_exposure: float = doc("Environment radiance scale in stops (× 2^value) for "

@@ -62,22 +62,10 @@ inline float ndf_table(__global const float *tables, int4 info, float3 h) {
     return mix(a, b, ft);
 }
 
-__kernel void fis_shade(
-    SHADE_PIXEL_ARGS, SHADE_MIP_ARGS,
-    const int nsamp, const uint seed, const int flags,
-    __global float4 *out)
+__kernel void fis_shade(FIS_SHADE_ARGS)
 {
-    int gid = get_global_id(0);
-    if (gid >= n) return;
-    Pixel px = pixel_init(gid, gnrm, gtan, gview, gpos, guv, gobj, objs, mats, texels, texinfo);
-    float3 N = px.N, T = px.T, B = px.B, x = px.x, kd = px.kd, ks = px.ks, op = px.op;
-    float4 q = px.q, qi = px.qi;
-    int8 ob = px.ob;
-    __global const float *m = px.m;
-    int mi = ob.s0;
-    Vis vis;   /* PCA coefficients interpolated over the SSDF mesh triangle (eq 24) */
-    vis_init(&vis, ob, objf[gobj[gid]].x, gtri[gid], gbary[gid], vfaces, coeffs, ssdf_data,
-             !(flags & 4));
+    SHADE_PIXEL_PROLOGUE;
+    int mi = OBJ_MAT(ob);
 
     int4 ndf = ndf_info[mi];
     int nl = ndf.w ? min((int)m[MAT_NLOBES], MAX_NDF_LOBES) : 0;
@@ -98,7 +86,7 @@ __kernel void fis_shade(
         nd = nsamp >= 4 ? nsamp / 4 : 0;
         ns = nsamp - nd;
     }
-    if (!(flags & 1))
+    if (!(flags & FLAG_NO_ENV_DIFFUSE))
         col += diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, &vis);
     float rot1 = 0.0f, rot2 = 0.0f;      /* seed ≠ 0: per-pixel Cranley–Patterson rotation */
     if (seed != 0u) {
@@ -107,7 +95,7 @@ __kernel void fis_shade(
         rot2 = (float)(hash_u32(hsh) & 0xFFFFu) / 65536.0f;
     }
     int N0 = mip_res[0];
-    for (int s = 0; s < ns + nd && !(flags & 2); ++s) {
+    for (int s = 0; s < ns + nd && !(flags & FLAG_NO_ENV_SPECULAR); ++s) {
         int spec = s < ns;
         int si = spec ? s : s - ns, cnt = spec ? ns : nd;
         float u1 = ((float)si + 0.5f) / (float)cnt + rot1, u2 = radical_inverse2((uint)si) + rot2;
@@ -141,7 +129,7 @@ __kernel void fis_shade(
         if (denom <= 0.0f) continue;
         float3 ig = quat_rotate(q, ip);
         if (ig.z <= 0.0f) continue;
-        if (!(flags & 4) && vis_theta(&vis, ig) <= 0.0f) continue;
+        if (!(flags & FLAG_NO_VISIBILITY) && vis_theta(&vis, ig) <= 0.0f) continue;
         float3 f = mf_M(m, tables, ks, op, ip) * ndf_table(tables, ndf, h);
         float3 iw = normalize(to_world(ig, T, B, N));
         float omega_s = 1.0f / denom;   /* = 1/(N p) */
@@ -154,7 +142,7 @@ __kernel void fis_shade(
         float3 lg = to_local(Lw.p, T, B, N);
         float3 lp = quat_rotate(qi, lg);
         if (lp.z <= 0.0f || lg.z <= 0.0f) continue;
-        if (!(flags & 4) && vis_theta(&vis, lg) <= 0.0f) continue;
+        if (!(flags & FLAG_NO_VISIBILITY) && vis_theta(&vis, lg) <= 0.0f) continue;
         float3 h = normalize(op + lp);
         float3 f = mf_diffuse(m, kd, op, lp);
         if (nl > 0) f += mf_M(m, tables, ks, op, lp) * ndf_table(tables, ndf, h);

@@ -95,12 +95,6 @@ inline float3 rotate_between(float3 a, float3 b, float3 v) {
     return v * c + cross(x, v) + x * (dot(x, v) / fmax(1.0f + c, 1e-6f));
 }
 
-#define GMM_NT 27
-#define GMM_NP 28
-#define GMM_K 29
-#define GMM_TMAX 30
-#define GMM_FLAGS 31
-
 /* Lobe k of view (t, p): α RGB, κ, axis (local BRDF frame; iso fits rotated to azimuth phi0). */
 inline void gmm_lobe(__global const float4 *gmm, int base, int np, int K, int t, int p, int k,
                      float phi_view, float3 *alpha, float *kappa, float3 *axis) {
@@ -113,47 +107,36 @@ inline void gmm_lobe(__global const float4 *gmm, int base, int np, int K, int t,
     *axis = (float3)(st * cos(phi), st * sin(phi), cos(b.x));
 }
 
-__kernel void gmm_shade(
-    SHADE_PIXEL_ARGS, SHADE_MIP_ARGS,
-    const int interp, const int flags,
-    __global float4 *out)
+__kernel void gmm_shade(GMM_SHADE_ARGS)
 {
-    int gid = get_global_id(0);
-    if (gid >= n) return;
-    Pixel px = pixel_init(gid, gnrm, gtan, gview, gpos, guv, gobj, objs, mats, texels, texinfo);
-    float3 N = px.N, T = px.T, B = px.B, x = px.x, kd = px.kd, ks = px.ks, op = px.op;
-    float4 q = px.q, qi = px.qi;
-    int8 ob = px.ob;
-    __global const float *m = px.m;
+    SHADE_PIXEL_PROLOGUE;
     /* Textures scale the fitted lobes by the texel / base-colour ratio (SVBRDF). */
     float3 ks0 = mat3(m, MAT_KS), kd0 = mat3(m, MAT_KD);
     float3 ks_ratio = select((float3)(1.0f), ks / ks0, isgreater(ks0, (float3)(0.0f)));
     float3 kd_ratio = select((float3)(1.0f), kd / kd0, isgreater(kd0, (float3)(0.0f)));
 
-    Vis vis;   /* PCA coefficients interpolated over the SSDF mesh triangle (eq 24) */
-    vis_init(&vis, ob, objf[gobj[gid]].x, gtri[gid], gbary[gid], vfaces, coeffs, ssdf_data,
-             !(flags & 4));
-
     float3 col = (float3)(0.0f);
     int base = (int)m[MAT_GMM];
-    int gflags = (int)m[GMM_FLAGS];
-    int with_diffuse_lobes = (gflags & 2) != 0;
+    int gflags = (int)m[MAT_GMM_FLAGS];
+    int with_diffuse_lobes = (gflags & VIEW_GMM_INCLUDES_DIFFUSE) != 0;
     /* A purely diffuse material's "slice" is the broad cosine lobe, far coarser than a lobe-sized
      * MIP lookup can resolve: it takes the irradiance form (SG light fit) like the diffuse part
      * of every other material. */
     if (with_diffuse_lobes && (int)m[MAT_NLOBES] == 0) { base = -1; with_diffuse_lobes = 0; }
     if (base >= 0) {
-        int nt = (int)m[GMM_NT], np = (int)m[GMM_NP], K = min((int)m[GMM_K], MAX_GMM_LOBES);
+        int nt = (int)m[MAT_GMM_NT], np = (int)m[MAT_GMM_NP];
+        int K = min((int)m[MAT_GMM_K], MAX_GMM_LOBES);
         float th = acos(clamp(op.z, -1.0f, 1.0f));
         float ph = atan2(op.y, op.x);
         if (ph < 0.0f) ph += 2.0f * 3.14159265358979f;
-        float tc = clamp(th / fmax(m[GMM_TMAX], 1e-6f) * (float)(nt - 1), 0.0f, (float)(nt - 1));
+        float tc = clamp(th / fmax(m[MAT_GMM_TMAX], 1e-6f) * (float)(nt - 1), 0.0f,
+                         (float)(nt - 1));
         float pc = np > 1 ? ph / (2.0f * 3.14159265358979f) * (float)np : 0.0f;
         /* Coherent fits (lobe k matches across views): lobes interpolated bilinearly.
          * Independent fits: the radiance of the neighbouring views' mixtures is blended
          * (GMM_VIEW_BLEND; else the nearest view). Either way each grid view's lobes are first
          * carried along with its mirror direction to the pixel's (GMM_ROTATE). */
-        int coherent = (gflags & 1) && interp;
+        int coherent = (gflags & VIEW_GMM_COHERENT) && interp;
         int blend = coherent || (interp && GMM_VIEW_BLEND);
         int t0 = blend ? min((int)floor(tc), max(nt - 2, 0)) : (int)(tc + 0.5f);
         float ft = blend && nt > 1 ? tc - (float)t0 : 0.0f;
@@ -177,7 +160,7 @@ __kernel void gmm_shade(
                     float3 a, ax; float kp;
                     gmm_lobe(gmm, base, np, K, tt[c], pp[c], k, phv, &a, &kp, &ax);
 #if GMM_ROTATE
-                    float tv = m[GMM_TMAX] * (float)tt[c] / (float)max(nt - 1, 1);
+                    float tv = m[MAT_GMM_TMAX] * (float)tt[c] / (float)max(nt - 1, 1);
                     float3 mg = (float3)(-sin(tv) * cos(phv), -sin(tv) * sin(phv), cos(tv));
                     ax = rotate_between(mg, mpix, ax);
 #endif
@@ -188,8 +171,9 @@ __kernel void gmm_shade(
                 axis = normalize(axis);
                 float3 ag = quat_rotate(q, axis);
                 float3 aw = normalize(to_world(ag, T, B, N));
-                float vis_f = (flags & 4) ? 1.0f : fh_hat(vis_theta(&vis, ag), kappa);
-                if (!(flags & 2))
+                float vis_f = (flags & FLAG_NO_VISIBILITY) ? 1.0f
+                                                          : fh_hat(vis_theta(&vis, ag), kappa);
+                if (!(flags & FLAG_NO_ENV_SPECULAR))
                     col += alpha * scale * vis_f * env_scale
                            * gmm_lobe_integral(mip, mip_off, mip_res, mip_n, aw, kappa, coverage);
                 for (int l = 0; l < n_lights; ++l) {
@@ -197,7 +181,7 @@ __kernel void gmm_shade(
                     float3 lg = to_local(Lw.p, T, B, N);
                     float3 E = sg_integral(Lw);
                     float pdf = vmf_to_sg_mu(kappa) * exp(kappa * (dot(axis, quat_rotate(qi, lg)) - 1.0f));
-                    float v = (flags & 4) ? 1.0f : fh_hat(vis_theta(&vis, lg), Lw.lam);
+                    float v = (flags & FLAG_NO_VISIBILITY) ? 1.0f : fh_hat(vis_theta(&vis, lg), Lw.lam);
                     col += alpha * scale * pdf * E * v;
                 }
             }
@@ -206,7 +190,7 @@ __kernel void gmm_shade(
     /* Diffuse outside the fitted slice: Wang09 eq 39 with the SG light fit (+ lights). */
     if (!with_diffuse_lobes) {
         SG cosg = sg_clamped_cosine(quat_rotate(q, (float3)(0.0f, 0.0f, 1.0f)));
-        if (!(flags & 1))
+        if (!(flags & FLAG_NO_ENV_DIFFUSE))
             col += diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, &vis);
         for (int l = 0; l < n_lights; ++l) {
             SG Lw = light_sg(lights[2 * l], lights[2 * l + 1], x);

@@ -70,34 +70,15 @@ inline SG spec_cosine(SG g) {
     return sg_make(p, g.lam, g.mu * eu);
 }
 
-__kernel void sg_shade(
-    SHADE_PIXEL_ARGS,
-    /* accurate Γ_L chain: (V, m) B-spline coefficient pairs, border 2 (cubemap.h) */
-    __global const float4 *pyr, __global const int *pyr_off, __global const int *pyr_res,
-    __global const float *pyr_lam, const int pyr_n, const float pyr_log_ratio, const float4 env_mean,
-    __global const float4 *pyr_pts, const int n_pts,   /* point set beside the levels */
-    __global const float4 *pyr_raw, const int raw_n,   /* unfiltered map (λ > λ_0), b1 */
-    __global const float4 *env_sg, const int n_env_sg, const float env_scale,
-    __global const float4 *lights, const int n_lights,
-    const int flags,
-    __global float4 *out)
+__kernel void sg_shade(SG_SHADE_ARGS)
 {
-    int gid = get_global_id(0);
-    if (gid >= n) return;
-    Pixel px = pixel_init(gid, gnrm, gtan, gview, gpos, guv, gobj, objs, mats, texels, texinfo);
-    float3 N = px.N, T = px.T, B = px.B, x = px.x, kd = px.kd, ks = px.ks, op = px.op;
-    float4 q = px.q, qi = px.qi;
-    int8 ob = px.ob;
-    __global const float *m = px.m;
-    Vis vis;   /* PCA coefficients interpolated over the SSDF mesh triangle (eq 24) */
-    vis_init(&vis, ob, objf[gobj[gid]].x, gtri[gid], gbary[gid], vfaces, coeffs, ssdf_data,
-             !(flags & 4));
+    SHADE_PIXEL_PROLOGUE;
     SG cosq = sg_clamped_cosine((float3)(0.0f, 0.0f, 1.0f));   /* C*(z+) of the rotated frame */
     SG cosg = cosq; cosg.p = quat_rotate(q, cosq.p);             /* ... in the geometric frame */
 
     float3 rd = (float3)(0.0f), rs = (float3)(0.0f);
     /* Environment, diffuse (eq 39). */
-    if (!(flags & 1))
+    if (!(flags & FLAG_NO_ENV_DIFFUSE))
         rd += diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, &vis);
     /* Local lights, diffuse part (eq 42), in the local frame. A light much sharper than the
      * cosine lobe (λ_L ≥ SHARP_LIGHT) uses the limit of the products, E·max(0, n·l)·f(l)·
@@ -140,7 +121,7 @@ __kernel void sg_shade(
             w.p = quat_rotate(q, w.p);
             s.p = quat_rotate(q, s.p);
             /* Environment (eq 41): ⊗ V^d (eq 31), rotate to world, Γ_L lookup (eq 35). */
-            if (!(flags & 2)) {
+            if (!(flags & FLAG_NO_ENV_SPECULAR)) {
                 float el = asin(clamp(s.p.z, -1.0f, 1.0f));
                 if (k == 0) { th0 = vis_theta(&vis, s.p); el0 = el; }
                 float th = clamp(th0 + (el - el0), -1.5707963f, 1.5707963f);

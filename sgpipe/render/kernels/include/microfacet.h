@@ -1,28 +1,11 @@
 /* The fit stage's one BRDF form (docs/ARTIFACTS.md fit/, Wang09 eq 8–14):
  *   ρ(o, i) = f_d(o, i) + M_o(i) D(h),  M_o(i) = ks g_scale F(o·h) G2(o, i) / (π (n·i)(n·o)),
  * everything in the local frame (z = n, x = t, y = b). Materials are float records of
- * MAT_STRIDE values (layout: MAT_* below, written by sgpipe/render/resources.py). */
+ * MAT_STRIDE values (layout: MAT_* of records.h, packed by sgpipe/render/materials.py). */
 #ifndef SGPIPE_MICROFACET_H
 #define SGPIPE_MICROFACET_H
 
-#define MAT_STRIDE 32
-#define MAT_KD 0          /* 3 */
-#define MAT_KS 3          /* 3 */
-#define MAT_GSCALE 6
-#define MAT_DIFFUSE 7     /* 0 lambert, 1 ashikhmin_shirley, 2 none */
-#define MAT_FRESNEL 8     /* 0 none, 1 schlick, 2 conductor, 3 dielectric */
-#define MAT_F0 9          /* 3 */
-#define MAT_ETA 12        /* 3 */
-#define MAT_K 15          /* 3 */
-#define MAT_SHADOW 18     /* 0..7, see g2() */
-#define MAT_AU 19
-#define MAT_AV 20
-#define MAT_NLOBES 21     /* NDF SG lobes (ndf_sg.npz) */
-#define MAT_LOBE0 22      /* first lobe in the lobe table */
-#define MAT_STAB 23       /* offset of the 90-entry shadow table (kind 7) in the table buffer */
-#define MAT_GMM 24        /* index of the view-GMM table (−1: none) */
-#define MAT_KDTEX 25      /* texture index of an albedo (kd) texture, −1: none */
-#define MAT_KSTEX 26      /* texture index of a ks texture, −1: none */
+#include "records.h"   /* MAT_STRIDE, MAT_* slots (generated: sgpipe/render/records.py) */
 
 #define MF_INV_PI 0.318309886183791f
 #define MF_SQRT_PI 1.77245385090552f

@@ -3,17 +3,8 @@
 #ifndef SGPIPE_SHADING_H
 #define SGPIPE_SHADING_H
 
-/* Object record, int8: material, first face in vfaces, first vertex row in coeffs, has_ssdf,
- * basis offset (floats), mean offset (floats), SSDF resolution, normal-map texture (−1 none).
- * Float record, float4: max_distance (radians), unused ×3. */
-#define OBJ_MAT 0
-#define OBJ_FACE0 1
-#define OBJ_VERT0 2
-#define OBJ_HASSSDF 3
-#define OBJ_BASIS 4
-#define OBJ_MEAN 5
-#define OBJ_RES 6
-#define OBJ_NMAP 7
+#include "records.h"   /* OBJ_*(ob), OBJF_*(of), FLAG_* (generated: sgpipe/render/records.py) */
+#include "methods.h"   /* <KERNEL>_ARGS (generated: sgpipe/render/methods.py) */
 
 /* Texture record int4: texel offset into the float4 texel buffer, width, height, unused.
  * UV convention (OBJ): v = 0 is the BOTTOM row; addressing wraps (repeat). */
@@ -96,14 +87,14 @@ inline void vis_init(Vis *v, int8 ob, float maxd, int tri, float2 bc,
     v->has = 0; v->res = 1; v->maxd = 1.5707963f;
     v->basis = ssdf_data; v->mean = ssdf_data;
 #if NV > 0
-    if (enabled && ob.s3 && tri >= 0) {
-        v->has = 1; v->res = ob.s6; v->maxd = maxd;
-        v->basis = ssdf_data + ob.s4; v->mean = ssdf_data + ob.s5;
-        __global const int *f = vfaces + 3 * (ob.s1 + tri);
+    if (enabled && OBJ_HAS_SSDF(ob) && tri >= 0) {
+        v->has = 1; v->res = OBJ_RES(ob); v->maxd = maxd;
+        v->basis = ssdf_data + OBJ_BASIS(ob); v->mean = ssdf_data + OBJ_MEAN(ob);
+        __global const int *f = vfaces + 3 * (OBJ_FACE0(ob) + tri);
         float w0 = 1.0f - bc.x - bc.y;
-        __global const float4 *c0 = (__global const float4 *)(coeffs + (ob.s2 + f[0]) * NV);
-        __global const float4 *c1 = (__global const float4 *)(coeffs + (ob.s2 + f[1]) * NV);
-        __global const float4 *c2 = (__global const float4 *)(coeffs + (ob.s2 + f[2]) * NV);
+        __global const float4 *c0 = (__global const float4 *)(coeffs + (OBJ_VERT0(ob) + f[0]) * NV);
+        __global const float4 *c1 = (__global const float4 *)(coeffs + (OBJ_VERT0(ob) + f[1]) * NV);
+        __global const float4 *c2 = (__global const float4 *)(coeffs + (OBJ_VERT0(ob) + f[2]) * NV);
         for (int j = 0; j < NV / 4; ++j) v->w[j] = w0 * c0[j] + bc.x * c1[j] + bc.y * c2[j];
     }
 #endif
@@ -120,29 +111,6 @@ inline float vis_theta(const Vis *v, float3 d) {
     float lim = fmin(v->maxd, 1.5707963f);
     return clamp(th, -lim, lim);
 }
-
-/* The kernel parameters every method takes first, in the host's order (renderer.py `common`):
- * the G-buffer, objects and their SSDF data, materials, textures. */
-#define SHADE_PIXEL_ARGS \
-    const int n, \
-    __global const float4 *gnrm, __global const float4 *gtan, __global const float4 *gview, \
-    __global const float4 *gpos, __global const float2 *guv, \
-    __global const int *gobj, __global const int *gtri, __global const float2 *gbary, \
-    __global const int8 *objs, __global const float4 *objf, \
-    __global const int *vfaces, __global const float *coeffs, \
-    __global const float *ssdf_data, \
-    __global const float *mats, __global const float4 *lobes, __global const float *tables, \
-    __global const float4 *texels, __global const int4 *texinfo
-
-/* ... and what gmm and fis take next: per-view mixtures / tabulated NDFs, the box MIP chain,
- * the diffuse SG light fit, the lobe coverage a, the local lights. */
-#define SHADE_MIP_ARGS \
-    __global const float4 *gmm, __global const int4 *ndf_info, \
-    __global const float4 *mip, __global const int *mip_off, __global const int *mip_res, \
-    const int mip_n, \
-    __global const float4 *env_sg, const int n_env_sg, const float env_scale, \
-    const float coverage, \
-    __global const float4 *lights, const int n_lights
 
 /* Per-pixel set-up shared by sg, gmm and fis: the G-buffer frame (n, t, b = n × t), the
  * material with its texture scales (SVBRDF), and the normal-map rotation q of the local frame
@@ -166,20 +134,36 @@ inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const flo
     p.B = cross(p.N, p.T);
     p.x = gpos[gid].xyz;
     p.ob = objs[gobj[gid]];
-    p.m = mats + p.ob.s0 * MAT_STRIDE;
+    p.m = mats + OBJ_MAT(p.ob) * MAT_STRIDE;
     p.uv = guv[gid];
     p.kd = mat3(p.m, MAT_KD);
     p.ks = mat3(p.m, MAT_KS);
     if ((int)p.m[MAT_KDTEX] >= 0) p.kd *= tex_bilinear(texels, texinfo[(int)p.m[MAT_KDTEX]], p.uv).xyz;
     if ((int)p.m[MAT_KSTEX] >= 0) p.ks *= tex_bilinear(texels, texinfo[(int)p.m[MAT_KSTEX]], p.uv).xyz;
     p.q = (float4)(0.0f, 0.0f, 0.0f, 1.0f);
-    if (p.ob.s7 >= 0)
-        p.q = quat_from_z(normal_from_map(tex_bilinear(texels, texinfo[p.ob.s7], p.uv)));
+    if (OBJ_NMAP(p.ob) >= 0)
+        p.q = quat_from_z(normal_from_map(tex_bilinear(texels, texinfo[OBJ_NMAP(p.ob)], p.uv)));
     p.qi = quat_conj(p.q);
     float3 ol = lift(to_local(gview[gid].xyz, p.T, p.B, p.N), 0.01f);
     p.op = lift(normalize(quat_rotate(p.qi, ol)), 0.01f);
     return p;
 }
+
+/* The prologue of every shading kernel (parameters <KERNEL>_ARGS): threads past n return; the
+ * pixel's set-up (pixel_init) as locals N, T, B, x, kd, ks, op, q, qi, ob, m; its SSDF state
+ * `vis` (PCA coefficients interpolated over the SSDF mesh triangle, eq 24), off under
+ * FLAG_NO_VISIBILITY. */
+#define SHADE_PIXEL_PROLOGUE \
+    int gid = get_global_id(0); \
+    if (gid >= n) return; \
+    Pixel px = pixel_init(gid, gnrm, gtan, gview, gpos, guv, gobj, objs, mats, texels, texinfo); \
+    float3 N = px.N, T = px.T, B = px.B, x = px.x, kd = px.kd, ks = px.ks, op = px.op; \
+    float4 q = px.q, qi = px.qi; \
+    int8 ob = px.ob; \
+    __global const float *m = px.m; \
+    Vis vis; \
+    vis_init(&vis, ob, OBJF_MAXD(objf[gobj[gid]]), gtri[gid], gbary[gid], vfaces, coeffs, \
+             ssdf_data, !(flags & FLAG_NO_VISIBILITY))
 
 /* Lobes at least this sharp are treated as small lights: their product with the broad
  * clamped-cosine SG C* (λ = 2.133, peak 1.17) is replaced by its sharp limit

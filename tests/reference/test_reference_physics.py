@@ -6,9 +6,9 @@ standard error (ReferenceResult.stderr) or from float round-off where the answer
 import numpy as np
 import pytest
 
-from sgpipe.render.camera import Camera
-from sgpipe.render.gbuffer import TraceObject, Tracer
-from sgpipe.render.reference import render_reference_result
+from sgpipe.reference import render_reference_result
+from sgpipe.scene.camera import Camera
+from sgpipe.scene.gbuffer import TraceObject, Tracer
 
 
 class Lambert:

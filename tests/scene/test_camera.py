@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from sgpipe.errors import BadInput
-from sgpipe.render.camera import Camera
-from sgpipe.render.gbuffer import GBuffer, TraceObject, Tracer, trace_gbuffer
+from sgpipe.scene.camera import Camera
+from sgpipe.scene.gbuffer import GBuffer, TraceObject, Tracer, trace_gbuffer
 
 
 def test_centre_ray_looks_at_target_and_corners_match_fov():

@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
+from reference_testlib import assert_estimators_agree
 from sgpipe.io import read_exr
-from sgpipe.render.camera import Camera
-from sgpipe.render.gbuffer import TraceObject
-from sgpipe.render.reference import EnvSampler, render_reference_result
-from sg_testlib import assert_estimators_agree
+from sgpipe.reference import EnvSampler, render_reference_result
+from sgpipe.scene.camera import Camera
+from sgpipe.scene.gbuffer import TraceObject
 
 DATA = __import__("pathlib").Path(__file__).resolve().parents[2] / "data_samples"
 
@@ -180,7 +180,7 @@ def test_worker_count_does_not_change_the_image():
 def test_counter_rng_is_uniform_and_decorrelated():
     """The hashed uniforms u(seed, pixel, sample, dim): 1-D and 2-D χ² uniformity, no
     correlation between dimensions, neighbouring pixels or seeds."""
-    from sgpipe.render import _reference_jit as jit
+    from sgpipe.reference import _sampling_jit as jit
     pid = np.arange(2000, dtype=np.int64)
     u = jit.uniforms(np.uint64(7), pid, 0, 32, 4)          # (2000, 32, 4)
     v = jit.uniforms(np.uint64(8), pid, 0, 32, 4)

@@ -1,40 +1,6 @@
-"""`reference` method: Monte Carlo ground truth of direct lighting (environment + delta lights).
-
-    from sgpipe.render.reference import render_reference
-    img = render_reference(objects, camera, env, materials=mats, lights=lights,
-                           spp=256, seed=0, workers=None)          # (H, W, 3) float32
-
-* `objects`: list of `sgpipe.render.gbuffer.TraceObject` (e.g. `render.scene.load_trace_objects`).
-* `materials`: one per object, aligned with `objects`: a BRDF object of the registry
-  (`eval/sample/pdf`), or anything naming one — `(model, params)`, `{"model", "params"}` or a
-  config `MaterialSpec` — built in each worker with `sgpipe.brdf.make_brdf(model, params)`.
-* `env`: lat-long (H, W, 3) linear radiance array or EXR path (GUIDE mapping), or None (black).
-  The environment is *piecewise constant*: the radiance of a direction is its texel's value
-  (the sample maps store texel means, so Σ texel·Ω is the exact integral).
-* `lights`: point / directional lights, dicts or objects with `type` ("directional" | "point"),
-  `direction` (directional: unit vector from the scene TOWARDS the light), `position` (point),
-  and `irradiance` (directional: RGB W/m² on a surface facing the light) or `intensity`
-  (point: RGB W/sr). Each adds f·E·cos θ·V (point: f·I·cos θ·V/r²), evaluated exactly.
-
-Per pixel (one primary ray through the pixel centre, like the other methods) the estimator of
-L_o = ∫ f(o, i) L_env(i) cos θ_i V(i) dω_i takes, per sample, one BRDF sample and one
-environment sample combined with multiple importance sampling (Veach 1997; `mis="power"` β=2,
-or `"balance"`); `strategy="brdf"` / `"env"` use one technique alone (same spp, for the
-unbiasedness tests). Visibility: shadow rays through `Tracer.occluded` (Embree for meshes,
-analytic spheres), offset along the geometric normal; directions below the geometric surface
-are black. Misses show the environment (`background="env"`) or black.
-
-Random numbers are counter-based (seed, pixel id, sample index, dimension; see
-`_reference_jit.uniforms`), pixels are split into fixed 32×32 tiles mapped with
-`sgpipe.parallel.map_chunks`: the image is bit-identical for a seed whatever the worker count.
-`progressive_every=k` records the image after every k spp (`ReferenceResult.checkpoints`);
-the image after n spp does not depend on k. `render_reference_result` also returns the
-per-pixel standard error of the mean (from the sample variance) and timing;
-`reference_from_config(cfg)` does everything from a validated config (the stage's one call).
-Optional inputs: `gbuffer` (precomputed, e.g. normal-mapped, G-buffer of `camera.rays()`),
-`kd_scale` / `ks_scale` (H, W, 3) SVBRDF texture multipliers of the diffuse / specular terms.
-Light config objects with `vector` (renderer `Light`) are accepted too.
-"""
+"""The `reference` method's driver (contract: sgpipe.reference): primary rays, 32×32 tiles of hit
+pixels mapped over workers (`shading.shade_tile`), and the image, standard error and progressive
+checkpoints assembled from the tiles' sums."""
 
 from __future__ import annotations
 
@@ -48,11 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sgpipe.render._reference_shade import (_CACHE, EnvSampler, _material_key,
-                                            materials_for_scene, normalize_lights, shade_tile)
-
-__all__ = ["render_reference", "render_reference_result", "reference_from_config",
-           "ReferenceResult", "EnvSampler", "materials_for_scene", "normalize_lights", "TILE"]
+from sgpipe.reference.sampler import EnvSampler
+from sgpipe.reference.shading import _CACHE, _material_key, normalize_lights, shade_tile
 
 TILE = 32
 _MIN_SAMPLES_PER_PROCESS_POOL = 4_000_000  # pixel-samples; below this `workers=None` uses 1
@@ -89,7 +52,7 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
     kd_scale·brdf.diffuse + ks_scale·brdf.specular (registry BRDFs only).
     """
     from sgpipe.parallel import map_chunks
-    from sgpipe.render.gbuffer import Tracer
+    from sgpipe.scene.gbuffer import Tracer
 
     if strategy not in ("mis", "brdf", "env"):
         raise ValueError(f"strategy must be mis, brdf or env, got {strategy!r}")
@@ -199,29 +162,6 @@ def _single_core() -> bool:
 
 def render_reference(objects, camera, env, *, materials, lights=(), spp: int = 64,
                      seed: int = 0, workers: int | None = None, **kw) -> np.ndarray:
-    """Monte Carlo reference image (H, W, 3) float32; see the module docstring."""
+    """Monte Carlo reference image (H, W, 3) float32; see sgpipe.reference."""
     return render_reference_result(objects, camera, env, materials=materials, lights=lights,
                                    spp=spp, seed=seed, workers=workers, **kw).image
-
-
-def reference_from_config(cfg, *, objects=None, gbuffer=None, kd_scale=None, ks_scale=None,
-                          progressive_every: int | None = None) -> ReferenceResult:
-    """The render stage's one call: scene, camera, environment (× 2^environment_exposure),
-    materials, lights, spp, seed, workers and background all from a validated config."""
-    from sgpipe.render.camera import Camera
-    from sgpipe.render.scene import load_trace_objects
-
-    r = cfg.render
-    env = None
-    if cfg.envmap is not None:
-        from sgpipe.io import read_exr
-        env = read_exr(cfg.envmap.environment, channels=(1, 3, 4), key="envmap.environment")
-        env = env * (2.0 ** float(getattr(r, "environment_exposure", 0.0)))
-    every = progressive_every if progressive_every is not None else \
-        int(getattr(r, "reference_progressive_every", 0) or 0)
-    return render_reference_result(
-        load_trace_objects(cfg) if objects is None else objects, Camera.from_spec(r.camera),
-        env, materials=materials_for_scene(cfg), lights=list(getattr(r, "lights", []) or []),
-        spp=int(getattr(r, "spp", 256)), seed=int(cfg.seed), workers=cfg.workers or None,
-        progressive_every=every, background=bool(getattr(r, "background", True)),
-        gbuffer=gbuffer, kd_scale=kd_scale, ks_scale=ks_scale)

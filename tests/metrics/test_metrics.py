@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from sgpipe.render import metrics
+from sgpipe import metrics
 
 
 def _img(seed=0, h=24, w=32):

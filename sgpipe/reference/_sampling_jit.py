@@ -1,4 +1,4 @@
-"""Compiled core of the Monte Carlo reference (see sgpipe.render.reference for the contract).
+"""Compiled core of the Monte Carlo reference (contract: sgpipe.reference).
 
 * Counter-based RNG: u(seed, pixel, sample, dim) = splitmix64 hash → [0, 1) with 53 bits, so
   a pixel's random numbers do not depend on tiles, passes or worker count.

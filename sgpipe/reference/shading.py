@@ -1,58 +1,17 @@
-"""Per-tile estimator of the `reference` method (see sgpipe.render.reference): the lat-long
-environment sampler, material / light normalisation and the MIS estimator over one tile of
-hit pixels. `shade_tile` is the module-level function mapped over tiles by map_chunks."""
+"""Per-tile estimator of the `reference` method (contract: sgpipe.reference): material / light
+normalisation and the MIS estimator over one tile of hit pixels. `shade_tile` is the
+module-level function mapped over tiles by map_chunks."""
 
 from __future__ import annotations
 
-import os
 import pickle
 
 import numpy as np
 
-from sgpipe.render import _reference_jit as jit
+from sgpipe.reference import _sampling_jit as jit
+from sgpipe.reference.sampler import EnvSampler
 
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 _ROWS_PER_PASS = 1 << 16  # sample rows per numpy batch inside a tile
-
-
-# --- environment ----------------------------------------------------------------------------
-class EnvSampler:
-    """Piecewise-constant lat-long environment with its importance-sampling distribution."""
-
-    def __init__(self, image):
-        if image is None:
-            image = np.zeros((1, 2, 3))
-        if isinstance(image, (str, os.PathLike)):
-            from sgpipe.io import read_exr
-            image = read_exr(image, channels=(1, 3, 4), key="envmap.environment")
-        rgb = np.asarray(image, np.float64)
-        if rgb.ndim == 2:
-            rgb = rgb[:, :, None]
-        if rgb.shape[2] == 1:
-            rgb = np.repeat(rgb, 3, axis=2)
-        rgb = np.ascontiguousarray(rgb[:, :, :3])
-        if not np.isfinite(rgb).all():
-            raise ValueError("environment has NaN/Inf texels")
-        self.rgb = np.maximum(rgb, 0.0)
-        self.lum = np.ascontiguousarray(self.rgb @ LUMA)
-        self.row_cdf, self.col_cdf, self.cos_edge, self.z = jit.build_distribution(self.lum)
-
-    @property
-    def shape(self):
-        return self.lum.shape
-
-    def sample(self, u1, u2):
-        """(dirs (N,3), solid-angle pdf (N,), radiance (N,3)) for uniforms u1, u2 (N,)."""
-        return jit.sample_env(np.ascontiguousarray(u1, np.float64),
-                              np.ascontiguousarray(u2, np.float64), self.row_cdf,
-                              self.col_cdf, self.cos_edge, self.lum, self.rgb, self.z)
-
-    def lookup(self, dirs):
-        """(radiance (N,3), pdf (N,)) of unit world directions (N,3)."""
-        return jit.lookup_env(np.ascontiguousarray(dirs, np.float64), self.lum, self.rgb, self.z)
-
-    def pdf(self, dirs):
-        return self.lookup(dirs)[1]
 
 
 # --- materials and lights -------------------------------------------------------------------
@@ -64,11 +23,6 @@ def _material_key(m):
         return (str(m[0]), dict(m[1] or {}))
     if isinstance(m, dict):
         return (str(m["model"]), dict(m.get("params") or {}))
-    if hasattr(m, "model"):
-        params = dict(getattr(m, "params", None) or {})
-        if getattr(m, "merl_file", None):
-            params.setdefault("merl_file", str(m.merl_file))
-        return (str(m.model), params)
     raise TypeError(f"cannot make a BRDF from {m!r}")
 
 
@@ -77,19 +31,6 @@ def _make_brdf(key):
         return key
     from sgpipe.brdf import make_brdf
     return make_brdf(key[0], key[1])
-
-
-def materials_for_scene(cfg) -> list:
-    """Per-object `(model, params)` from `cfg.scene.objects[*].material` → `cfg.fit.materials`."""
-    from sgpipe.errors import BadInput
-    mats = {m.name: m for m in (cfg.fit.materials if cfg.fit is not None else [])}
-    out = []
-    for k, o in enumerate(cfg.scene.objects if cfg.scene is not None else []):
-        if o.material not in mats:
-            raise BadInput(f"material {o.material!r} is not defined in fit.materials",
-                           file=getattr(cfg, "source", None), key=f"scene.objects.{k}.material")
-        out.append(_material_key(mats[o.material]))
-    return out
 
 
 def _get(obj, *names, default=None):
@@ -229,7 +170,7 @@ def _shared(task):
     """Per-process cache of the scene (tracer, env sampler, BRDFs) for one render call."""
     key = task["key"]
     if _CACHE.get("key") != key:
-        from sgpipe.render.gbuffer import Tracer
+        from sgpipe.scene.gbuffer import Tracer
         shared = task["shared"]
         if isinstance(shared, str):
             with open(shared, "rb") as fh:

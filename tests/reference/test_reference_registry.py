@@ -5,13 +5,11 @@ Ward materials and the microfacet models."""
 import numpy as np
 import pytest
 
+from reference_testlib import assert_estimators_agree
 from sgpipe.io import read_exr
-from sgpipe.render.camera import Camera
-from sgpipe.render.gbuffer import TraceObject
-from sgpipe.render.reference import render_reference_result
-from sg_testlib import assert_estimators_agree
-
-pytest.importorskip("sgpipe.brdf")
+from sgpipe.reference import render_reference_result
+from sgpipe.scene.camera import Camera
+from sgpipe.scene.gbuffer import TraceObject
 
 DATA = __import__("pathlib").Path(__file__).resolve().parents[2] / "data_samples"
 
@@ -65,25 +63,3 @@ def test_mis_brdf_env_agree_registry(model, params):
                                       seed=21, workers=1, strategy=s)
            for s in ("mis", "brdf", "env")}
     assert_estimators_agree(res)
-
-
-def test_reference_from_config_matches_direct_call():
-    """The stage's one call (config → objects, env × exposure, materials, lights, seed) equals
-    the explicit call; an undefined material is BadInput naming the key."""
-    from sgpipe.errors import BadInput
-    from sgpipe.experiments.figures import build_config
-    from sgpipe.render.reference import materials_for_scene, reference_from_config
-    mats = [{"name": "w", "model": "ward", "params": {"alpha": 0.2, "kd": 0.3, "ks": 0.5}}]
-    cfg = build_config(DATA / "studio.exr", mats, "w", ["reference"], size=12, spp=4, seed=5,
-                       workers=1)
-    cfg.render.environment_exposure = 1.0
-    res = reference_from_config(cfg)
-    cam = Camera.from_spec(cfg.render.camera)
-    direct = render_reference_result([TraceObject.sphere("sphere", (0, 0, 0), 1.0)], cam,
-                                     2.0 * read_exr(DATA / "studio.exr"),
-                                     materials=[("ward", mats[0]["params"])], spp=4, seed=5,
-                                     workers=1, background="black")
-    np.testing.assert_array_equal(res.image, direct.image)
-    cfg.scene.objects[0].material = "nope"
-    with pytest.raises(BadInput, match="nope"):
-        materials_for_scene(cfg)
