@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 import sys
 from pathlib import Path
 
@@ -11,6 +12,56 @@ import sgpipe
 from sgpipe.errors import BadInput
 
 EXIT_BAD_INPUT = 2
+_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_RERAISE_S = 0.25      # how soon a swallowed interruption is raised again
+
+
+class Interrupted(BaseException):
+    """SIGINT or SIGTERM arrived: unwinds like KeyboardInterrupt (StageRun and map_chunks clean
+    up on any BaseException), and is not caught by click, which would turn it into Abort."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+_received: list[int] = []
+
+
+def _on_signal(signum, frame):
+    """First SIGINT / SIGTERM: raise Interrupted, and arm a SIGALRM timer that raises it again
+    whenever no exception is being handled — i.e. when a library swallowed it (trimesh wraps
+    its imports in `except BaseException`). While an exception is being handled (cleanup in
+    `finally` / `__exit__` / `except`), repeats and timer ticks do nothing, so cleanup is never
+    cut short."""
+    if not _received:
+        _received.append(signum)
+        signal.signal(signal.SIGALRM, _on_signal)
+        signal.setitimer(signal.ITIMER_REAL, _RERAISE_S, _RERAISE_S)
+        raise Interrupted(signum)
+    if sys.exc_info()[1] is None:
+        raise Interrupted(_received[0])
+
+
+def _install_signal_handlers() -> dict:
+    """SIGINT / SIGTERM raise Interrupted (unless inherited as ignored, e.g. under nohup);
+    returns the previous handlers."""
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    _received.clear()
+    old = {s: signal.getsignal(s) for s in (*_SIGNALS, signal.SIGALRM)}
+    for s in _SIGNALS:
+        if old[s] is not signal.SIG_IGN:
+            signal.signal(s, _on_signal)
+    return old
+
+
+def _restore_signal_handlers(old: dict) -> None:
+    if old:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        for s, h in old.items():
+            signal.signal(s, h)
 
 
 def _config_options(f):
@@ -34,9 +85,11 @@ def _load(config: Path, overrides, out_dir: Path | None):
 
 def _run_stages(names: list[str], config, out_dir, overrides, force):
     import importlib
+    from sgpipe.stages.base import folder_lock
     cfg, out = _load(config, overrides, out_dir)
-    for name in names:
-        importlib.import_module(f"sgpipe.stages.{name}").run(cfg, out, force=force)
+    with folder_lock(out):      # a second run on this folder waits, then reuses these stages
+        for name in names:
+            importlib.import_module(f"sgpipe.stages.{name}").run(cfg, out, force=force)
     click.echo(f"outputs: {out.resolve()}")
 
 
@@ -47,7 +100,8 @@ def cli():
     render with OpenCL, and measure the result against a Monte Carlo reference.
 
     Each stage command reads a YAML config and writes artifacts under OUT/<stage>/.
-    Exit status: 0 ok, 2 bad input, 1 internal error.
+    Exit status: 0 ok, 2 bad input, 1 internal error, 130 / 143 interrupted by SIGINT /
+    SIGTERM (nothing half-written is left; finished stages stay).
     """
 
 
@@ -119,21 +173,40 @@ def doctor():
 
 
 def main(argv=None):
-    """Entry point: BadInput -> one line on stderr, exit 2; bugs -> traceback, exit 1."""
+    """Entry point: BadInput -> one line on stderr, exit 2; bugs -> traceback, exit 1;
+    SIGINT / SIGTERM -> one line, exit 128 + signal number (130 / 143)."""
+    old_handlers = _install_signal_handlers()
     try:
-        cli.main(args=argv, prog_name="sgpipe", standalone_mode=False)
-    except BadInput as e:
-        click.echo(f"sgpipe: error: {e.one_line()}", err=True)
-        sys.exit(EXIT_BAD_INPUT)
-    except click.exceptions.Abort:
-        click.echo("sgpipe: aborted", err=True)
-        sys.exit(1)
-    except click.ClickException as e:
-        e.show()
-        sys.exit(e.exit_code)
+        try:
+            cli.main(args=argv, prog_name="sgpipe", standalone_mode=False)
+        finally:
+            _restore_signal_handlers(old_handlers)
     except SystemExit:
         raise
+    except BaseException as e:
+        if _received or isinstance(e, Interrupted):
+            # whatever ends the run after a signal (a library may have turned it into another
+            # error) is the interruption: cleanup has run on the way up
+            _exit_interrupted(_received[0] if _received else e.signum)
+        if isinstance(e, BadInput):
+            click.echo(f"sgpipe: error: {e.one_line()}", err=True)
+            sys.exit(EXIT_BAD_INPUT)
+        if isinstance(e, click.exceptions.Abort):
+            click.echo("sgpipe: aborted", err=True)
+            sys.exit(1)
+        if isinstance(e, click.ClickException):
+            e.show()
+            sys.exit(e.exit_code)
+        raise
+    if _received:                  # swallowed by a library, and the run went on to the end
+        _exit_interrupted(_received[0])
     sys.exit(0)
+
+
+def _exit_interrupted(signum: int):
+    click.echo(f"sgpipe: interrupted ({signal.Signals(signum).name}); finished stages are "
+               "kept", err=True)
+    sys.exit(128 + signum)
 
 
 if __name__ == "__main__":  # pragma: no cover

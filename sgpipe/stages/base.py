@@ -12,19 +12,31 @@ Usage inside a stage:
         run.report["irradiance_rel_err"] = 0.004   # deterministic facts -> manifest
         run.timings["pyramid_s"] = 0.8             # wall-clock -> timings.json (not hashed)
 
-Everything is written into `<out>/.<stage>.staging/`; on success the manifest and resolved
-config are added and the folder replaces `<out>/<stage>/`. On any exception the staging folder
-is deleted and the previous outputs stay as they were: nothing half-written.
+Everything is written into `<out>/.<stage>.staging/` (scratch files that are not outputs into
+`run.scratch_dir()`, `<out>/.<stage>.tmp/`); on success the manifest and resolved config are
+added and the folder replaces `<out>/<stage>/`. On any exception — KeyboardInterrupt and the
+CLI's SIGINT/SIGTERM exception included — the staging and scratch folders are deleted and the
+previous outputs stay as they were: nothing half-written.
+
+A run holds an exclusive lock on its output folder (`folder_lock`; the CLI holds it for a whole
+command): a second run on the same folder waits, then finds the stages up to date. The skip
+check re-hashes every output the manifest names, so a deleted or truncated artifact reruns its
+stage. Input files are recorded by location-independent keys (`input_key`), so the manifest's
+bytes do not depend on where the output folder is.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import functools
 import hashlib
 import json
 import os
 import shutil
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -78,6 +90,97 @@ def log(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
 
+_LOCKS: dict[str, list] = {}     # resolved folder -> [fd, depth]: this process's held locks
+
+
+@contextlib.contextmanager
+def folder_lock(out_dir: str | Path):
+    """Hold an exclusive flock on the output folder (created if missing). Re-entrant within a
+    process; another process waits, after saying so in one line. A folder this call created
+    and left empty (e.g. a bad input before any stage wrote) is removed again."""
+    out_dir = Path(out_dir)
+    created = not out_dir.exists()
+    check_writable(out_dir)
+    key = str(out_dir.resolve())
+    if key in _LOCKS:
+        _LOCKS[key][1] += 1
+        try:
+            yield
+        finally:
+            _LOCKS[key][1] -= 1
+        return
+    fd = _acquire(out_dir, key)
+    _LOCKS[key] = [fd, 1]
+    try:
+        yield
+    finally:
+        del _LOCKS[key]
+        if created:
+            with contextlib.suppress(OSError):
+                out_dir.rmdir()        # only succeeds when empty
+        os.close(fd)                   # releases the lock
+
+
+def _acquire(out_dir: Path, key: str) -> int:
+    """fd of the folder, exclusively locked; retried if the folder was replaced meanwhile (a
+    waiter may have locked a folder that the previous holder removed)."""
+    said = False
+    while True:
+        os.makedirs(key, exist_ok=True)
+        fd = os.open(key, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                if not said:
+                    log(f"sgpipe: waiting for another sgpipe run on {out_dir} to finish ...")
+                    said = True
+                fcntl.flock(fd, fcntl.LOCK_EX)      # interruptible: EINTR runs the handlers
+            st = os.fstat(fd)
+            if os.path.exists(key) and os.path.samestat(st, os.stat(key)):
+                return fd
+        except BaseException:
+            os.close(fd)
+            raise
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def _signals_deferred():
+    """SIGINT / SIGTERM (and SIGALRM when it has a Python handler: the CLI re-raises a
+    swallowed interruption with it) that arrive inside the block are delivered when it ends: a
+    publish (hash outputs, write the manifest, swap the folders) is never cut half-way."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending: list[int] = []
+    old = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGALRM)}
+    deferred = [s for s, h in old.items()
+                if h is not signal.SIG_IGN and (s != signal.SIGALRM or callable(h))]
+    for s in deferred:
+        signal.signal(s, lambda signum, frame: pending.append(signum))
+    try:
+        yield
+    finally:
+        for s in deferred:
+            signal.signal(s, old[s])
+        for s in dict.fromkeys(pending):
+            signal.raise_signal(s)
+
+
+def input_key(path: Path, out_dir: Path, config_dir: Path | None) -> str:
+    """Location-independent manifest key of an input file: `<out>/...` relative to the output
+    folder for files inside it, `<config>/...` relative to the config file's folder otherwise
+    (the absolute path only when there is no config file)."""
+    path = path.resolve()
+    out_dir = out_dir.resolve()
+    if path.is_relative_to(out_dir):
+        return "<out>/" + path.relative_to(out_dir).as_posix()
+    if config_dir is not None:
+        return "<config>/" + Path(os.path.relpath(path, config_dir.resolve())).as_posix()
+    return path.as_posix()
+
+
 class StageRun:
     """One stage's run: see the module docstring."""
 
@@ -87,24 +190,27 @@ class StageRun:
         self.out_dir = Path(out_dir)
         self.stage = stage
         self.params = to_plain(params)
-        self.inputs = sorted({str(Path(p).resolve()) for p in inputs})
+        self.inputs = sorted({Path(p).resolve() for p in inputs})
         self.force = force
         self.final_dir = self.out_dir / stage
         self.staging = self.out_dir / f".{stage}.staging"
+        self.scratch = self.out_dir / f".{stage}.tmp"
         self.report: dict[str, Any] = {}
         self.timings: dict[str, float] = {}
         self.skipped = False
         self._t0 = 0.0
+        self._lock = None
 
     # -- identity -------------------------------------------------------------------------
     def _input_hashes(self) -> dict[str, str]:
+        source = getattr(self.cfg, "source", None)
+        config_dir = Path(source).parent if source is not None else None
         out = {}
-        for p in self.inputs:
-            path = Path(p)
+        for path in self.inputs:
             if not path.is_file():
                 raise BadInput("input file not found", file=path, key=self.stage)
-            out[p] = file_hash(path)
-        return out
+            out[input_key(path, self.out_dir, config_dir)] = file_hash(path)
+        return dict(sorted(out.items()))
 
     @property
     def param_hash(self) -> str:
@@ -120,42 +226,74 @@ class StageRun:
             man = json.loads(man_path.read_text())
         except (OSError, ValueError):
             return False
+        if not isinstance(man, dict) or not isinstance(man.get("outputs"), dict):
+            return False
         if man.get("param_hash") != self.param_hash or man.get("inputs") != input_hashes:
             return False
-        for name, digest in man.get("outputs", {}).items():
+        # Every output the manifest names must be there with its recorded bytes: a deleted or
+        # truncated artifact makes the stage run again instead of failing downstream.
+        for name, digest in man["outputs"].items():
             p = self.final_dir / name
             if not p.is_file() or file_hash(p) != digest:
+                log(f"[{self.stage}] {p} is missing or changed since it was written: rerunning")
                 return False
         return True
 
+    def scratch_dir(self) -> Path:
+        """A private folder for temporary files that are not outputs (memory-mapped arrays,
+        files shared with workers); deleted when the stage ends, however it ends."""
+        self.scratch.mkdir(parents=True, exist_ok=True)
+        return self.scratch
+
+    def _remove_leftovers(self) -> None:
+        """Staging / scratch / swap folders of a run of this stage that was killed (SIGKILL,
+        power loss); safe because this process holds the folder lock."""
+        st = self.stage
+        for p in [*self.out_dir.glob(f".{st}.staging"), *self.out_dir.glob(f".{st}.tmp*"),
+                  *self.out_dir.glob(f".{st}.old")]:
+            shutil.rmtree(p, ignore_errors=True)
+
     # -- context manager ------------------------------------------------------------------
     def __enter__(self) -> "StageRun":
-        check_writable(self.out_dir)
-        self._input_hash_map = self._input_hashes()
-        if self._up_to_date(self._input_hash_map):
-            self.skipped = True
-            log(f"[{self.stage}] up to date: inputs and parameters unchanged "
-                f"(skipped; --force reruns) -> {self.final_dir}")
+        self._lock = folder_lock(self.out_dir)
+        self._lock.__enter__()
+        try:
+            self._remove_leftovers()
+            self._input_hash_map = self._input_hashes()
+            if self._up_to_date(self._input_hash_map):
+                self.skipped = True
+                log(f"[{self.stage}] up to date: inputs and parameters unchanged "
+                    f"(skipped; --force reruns) -> {self.final_dir}")
+                return self
+            self.staging.mkdir(parents=True)
+            self._t0 = time.perf_counter()
+            log(f"[{self.stage}] running -> {self.final_dir}")
             return self
-        if self.staging.exists():
-            shutil.rmtree(self.staging)
-        self.staging.mkdir(parents=True)
-        self._t0 = time.perf_counter()
-        log(f"[{self.stage}] running -> {self.final_dir}")
-        return self
+        except BaseException:
+            self._release()
+            raise
 
     def __exit__(self, exc_type, exc, tb) -> bool:
-        if self.skipped:
-            return False
-        if exc_type is not None:
-            shutil.rmtree(self.staging, ignore_errors=True)
-            return False
         try:
-            self._publish()
-        except BaseException:
-            shutil.rmtree(self.staging, ignore_errors=True)
-            raise
-        return False
+            if self.skipped:
+                return False
+            try:
+                if exc_type is None:
+                    shutil.rmtree(self.scratch, ignore_errors=True)
+                    with _signals_deferred():     # a signal now lands after the publish
+                        self._publish()
+            finally:
+                # after a failure, or a publish cut short: nothing half-written stays
+                shutil.rmtree(self.staging, ignore_errors=True)
+                shutil.rmtree(self.scratch, ignore_errors=True)
+            return False
+        finally:
+            self._release()
+
+    def _release(self) -> None:
+        lock, self._lock = self._lock, None
+        if lock is not None:
+            lock.__exit__(None, None, None)
 
     def _publish(self) -> None:
         self.timings.setdefault("total_s", time.perf_counter() - self._t0)

@@ -3,8 +3,6 @@
 
 from __future__ import annotations
 
-import shutil
-import tempfile
 import time
 from pathlib import Path
 
@@ -36,11 +34,8 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     with StageRun(cfg, out_dir, "visibility", params=params, inputs=inputs, force=force) as run:
         if run.skipped:
             return run
-        tmp = Path(tempfile.mkdtemp(prefix=".visibility.tmp", dir=out_dir))
-        try:
-            _run(cfg, run, tmp)
-        finally:
-            shutil.rmtree(tmp, ignore_errors=True)
+        # the SSDF memmaps the workers fill: StageRun deletes the folder however the stage ends
+        _run(cfg, run, run.scratch_dir())
     return run
 
 

@@ -73,7 +73,7 @@ def test_code_change_reruns(cfg, tmp_path, monkeypatch):
 def test_code_hash_covers_python_and_kernels():
     import sgpipe.stages.base as base
     names = {p.name for p in base.code_files()}
-    assert {"base.py", "pyramid.py", "sg_shade.cl", "cubemap.h"} <= names
+    assert {"base.py", "cli.py", "sg_shade.cl", "cubemap.h"} <= names
     assert not any(p.suffix == ".pyc" for p in base.code_files())
 
 
@@ -92,7 +92,108 @@ def test_failure_on_first_run_writes_nothing(cfg, tmp_path):
     out = tmp_path / "out"
     with pytest.raises(RuntimeError):
         _run(cfg, out, {"v": 5.0}, fail=True)
-    assert list(out.iterdir()) == []
+    assert not out.exists()          # the folder the run created is removed again
+
+
+@pytest.mark.parametrize("exc", [KeyboardInterrupt, SystemExit])
+def test_interrupt_removes_staging_and_scratch(cfg, tmp_path, exc):
+    """KeyboardInterrupt / SystemExit (what signals become) clean up like any failure."""
+    out = tmp_path / "out"
+    _run(cfg, out, {"v": 1.0})
+    before = {p.name: p.read_bytes() for p in (out / "demo").iterdir()}
+    with pytest.raises(exc):
+        with StageRun(cfg, out, "demo", params={"v": 2.0}) as run:
+            (run.scratch_dir() / "big.f32").write_bytes(b"x" * 100)
+            run.write_npz("a.npz", {"x": np.zeros(3)})
+            raise exc()
+    assert sorted(p.name for p in out.iterdir()) == ["demo"]
+    assert {p.name: p.read_bytes() for p in (out / "demo").iterdir()} == before
+
+
+def test_scratch_removed_after_success_and_leftovers_of_a_killed_run(cfg, tmp_path):
+    out = tmp_path / "out"
+    for name in (".demo.staging", ".demo.tmp", ".demo.tmpab12cd", ".demo.old"):
+        (out / name).mkdir(parents=True)          # what a SIGKILLed run leaves
+        (out / name / "f").write_text("stale")
+    with StageRun(cfg, out, "demo", params={"v": 1.0}) as run:
+        (run.scratch_dir() / "tmp.npy").write_bytes(b"scratch")
+        run.write_json("r.json", {"a": 1})
+    assert sorted(p.name for p in out.iterdir()) == ["demo"]
+    assert "tmp.npy" not in json.loads((out / "demo" / "manifest.json").read_text())["outputs"]
+
+
+@pytest.mark.parametrize("damage", ["delete", "truncate", "empty"])
+def test_damaged_output_reruns(cfg, tmp_path, damage, capsys):
+    out = tmp_path / "out"
+    _run(cfg, out, {"v": 1.0})
+    good = (out / "demo" / "img.exr").read_bytes()
+    target = out / "demo" / "img.exr"
+    if damage == "delete":
+        target.unlink()
+    else:
+        target.write_bytes(good[: len(good) // 2] if damage == "truncate" else b"")
+    capsys.readouterr()
+    assert not _run(cfg, out, {"v": 1.0}).skipped
+    assert "missing or changed" in capsys.readouterr().err
+    assert target.read_bytes() == good
+    assert _run(cfg, out, {"v": 1.0}).skipped
+
+
+def test_manifest_without_outputs_is_not_up_to_date(cfg, tmp_path):
+    out = tmp_path / "out"
+    _run(cfg, out, {"v": 1.0})
+    man = out / "demo" / "manifest.json"
+    m = json.loads(man.read_text())
+    del m["outputs"]
+    man.write_text(json.dumps(m))
+    assert not _run(cfg, out, {"v": 1.0}).skipped
+    man.write_text("[1, 2]")
+    assert not _run(cfg, out, {"v": 1.0}).skipped
+
+
+def test_input_keys_do_not_depend_on_the_output_folder(tmp_path):
+    """Inputs inside the output folder are keyed `<out>/...`, others relative to the config's
+    folder: the same config into two output folders gives byte-identical manifests."""
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "mesh.obj").write_text("v 0 0 0\n")
+    (tmp_path / "cfgs").mkdir()
+    p = tmp_path / "cfgs" / "c.yaml"
+    p.write_text("name: t\nseed: 1\n")
+    cfg = load_config(p)
+    trees = []
+    for out in (tmp_path / "a", tmp_path / "deeper" / "b"):
+        _run(cfg, out, {"v": 1.0})
+        with StageRun(cfg, out, "next", params={}, inputs=[
+                out / "demo" / "manifest.json", tmp_path / "data" / "mesh.obj"]) as run:
+            run.write_json("r.json", {})
+        man = json.loads((out / "next" / "manifest.json").read_text())
+        assert sorted(man["inputs"]) == ["<config>/../data/mesh.obj", "<out>/demo/manifest.json"]
+        trees.append({f.relative_to(out).as_posix(): f.read_bytes() for f in out.rglob("*")
+                      if f.is_file() and f.name != "timings.json"})
+    assert trees[0] == trees[1]
+
+
+def test_folder_lock_is_reentrant_and_exclusive(tmp_path):
+    import fcntl
+    import os
+
+    from sgpipe.stages.base import folder_lock
+    out = tmp_path / "out"
+    out.mkdir()                         # (a folder the lock created and left empty is removed)
+    with folder_lock(out):
+        with folder_lock(out):          # StageRun inside the CLI's lock
+            pass
+        fd = os.open(out, os.O_RDONLY)
+        try:                            # another open file (another process) cannot take it
+            with pytest.raises(BlockingIOError):
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        finally:
+            os.close(fd)
+    fd = os.open(out, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)   # released
+    finally:
+        os.close(fd)
 
 
 def test_same_inputs_give_byte_identical_artifacts(cfg, tmp_path):
