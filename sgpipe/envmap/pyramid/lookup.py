@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sgpipe.core.sg import sg_integral
+from sgpipe.core.sg import dln_sg_norm, sg_integral
 from sgpipe.core.vmf import mean_resultant_length
 from sgpipe.envmap._cube_jit import sample_bordered
 
@@ -152,12 +152,6 @@ def _broad_weight(lam, lam_last):
     """(M, 1) weight A(λ)/A(λ_{L−1}) of the broadest level's deviation from the mean below it
     (A: the l = 1 response of the normalized SG, `core.vmf.mean_resultant_length`)."""
     return (mean_resultant_length(lam) / mean_resultant_length(lam_last))[:, None]
-
-
-def dln_sg_norm(lam):
-    """∂ln S/∂ln λ = 2λ/(e^{2λ} − 1) − 1: the log-slope of Γ_L of a constant map."""
-    x = np.clip(2.0 * np.asarray(lam, float), 1e-300, 700.0)
-    return np.where(x < 2e-8, -0.5 * x, x / np.expm1(x) - 1.0)
 
 
 def hermite_ln(va, ma, la, vb, mb, lb, lam, t):
