@@ -16,12 +16,10 @@ import numpy as np
 from sgpipe.artifacts import fit as contract
 from sgpipe.artifacts import scalar
 from sgpipe.errors import BadInput
+from sgpipe.render.records import (AU, AV, DIFFUSE, ETA, F0, FRESNEL, GMM, GMM_FLAGS, GMM_K,
+                                   GMM_NP, GMM_NT, GMM_TMAX, GSCALE, K, KD, KDTEX, KS, KSTEX,
+                                   LOBE0, MAT_STRIDE, NLOBES, SHADOW, STAB)
 
-MAT_STRIDE = 32
-# Slots (kernels/include/microfacet.h); 27..31 describe the view-GMM / NDF tables.
-KD, KS, GSCALE, DIFFUSE, FRESNEL, F0, ETA, K, SHADOW, AU, AV = 0, 3, 6, 7, 8, 9, 12, 15, 18, 19, 20
-NLOBES, LOBE0, STAB, GMM, KDTEX, KSTEX = 21, 22, 23, 24, 25, 26
-GMM_NT, GMM_NP, GMM_K, GMM_TMAX, GMM_FLAGS = 27, 28, 29, 30, 31
 # The exact-NDF table (fis) is located through a separate int4 per material (offset, nt, np, 0).
 
 #: Exact-NDF table resolution: rows t = sqrt(1 − cos θ_h) ∈ [0, 1], columns φ_h ∈ [0, 2π).

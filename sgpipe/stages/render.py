@@ -22,7 +22,7 @@ from sgpipe.stages.base import StageRun, log
 def _inputs(cfg, out_dir: Path) -> list[Path]:
     """Upstream manifests (they hash every artifact) and the files the scene names."""
     files = [out_dir / s / "manifest.json" for s in ("fit", "envmap", "visibility")
-             if getattr(cfg, s, None) is not None]
+             if getattr(cfg, s) is not None]
     for o in cfg.scene.objects if cfg.scene is not None else []:
         files += [Path(p) for p in (o.mesh, o.normal_map) if p]
     for t in cfg.render.material_textures:
@@ -63,7 +63,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     rs = cfg.render
     for stage, cmd in (("fit", "fit"), ("envmap", "precompute"), ("visibility", "precompute")):
         done = (out_dir / stage / "manifest.json").is_file()
-        if getattr(cfg, stage, None) is not None and not done:
+        if getattr(cfg, stage) is not None and not done:
             raise BadInput(f"no {stage} artifacts here: run `sgpipe {cmd}` (or `sgpipe run`) "
                            f"with the same --out first", file=out_dir / stage, key=stage)
     params = {"render": to_plain(rs), "scene": to_plain(cfg.scene),
