@@ -246,7 +246,7 @@ class Renderer:
         values = {**self.static, **g, "flags": flags, "coverage": mip_coverage,
                   "interp": 1 if gmm_interpolate else 0, "nsamp": fis_samples, "seed": seed}
         args = [_SCALAR.get(ctype, _as_is)(values[name])
-                for ctype, name in METHODS[method].param_list()]
+                for ctype, name in METHODS[method].parameters]
         kern(self.queue, (n,), None, *args)
         return opencl.read_back(self.queue, g["out"], (n, 4))[:, :3]
 

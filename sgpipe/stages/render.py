@@ -51,7 +51,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     if cfg.render is None:
         log("[render] no 'render:' section in the config; nothing to do")
         return None
-    from sgpipe.render.methods import METHODS
+    from sgpipe.render.methods import METHODS, REFERENCE
     from sgpipe.render.records import KernelFlag
     from sgpipe.render.renderer import Frame
     from sgpipe.render.scene import ssdf_triangles
@@ -108,14 +108,14 @@ def run(cfg, out_dir: Path, *, force: bool = False):
                 run.timings[f"{method}_fps"] = 1.0 / sec if sec > 0 else float("inf")
                 log(f"[render] {method}: {sec * 1e3:.1f} ms/frame "
                     f"({cam.width}x{cam.height}, {len(frame.index)} shaded pixels)")
-            run.timings.update({k: v for k, v in r.timings.items()})
-        if "reference" in rs.methods:
-            images["reference"] = _reference(cfg, bundle, run)
+            run.timings.update(r.timings)
+        if REFERENCE in rs.methods:
+            images[REFERENCE] = _reference(cfg, bundle, run)
         for method in rs.methods:
             img = images[method]
             run.write_exr(f"{method}.exr", img, exposure=rs.preview_exposure,
                           metadata={"method": method,
-                                    **({"spp": rs.spp} if method == "reference" else {})})
+                                    **({"spp": rs.spp} if method == REFERENCE else {})})
             run.report.setdefault("mean_rgb", {})[method] = [
                 round(float(c), 6) for c in img.reshape(-1, 3).mean(0)]
         run.report["shaded_pixels"] = int(len(frame.index))

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from sgpipe.config.schema import InputPath, doc
-from sgpipe.render.methods import METHOD_NAMES, METHODS
+from sgpipe.render.methods import METHOD_NAMES, METHODS, REFERENCE
 
 #: A `render.methods` entry: an OpenCL method of the registry or the Monte Carlo `reference`.
 RenderMethod = Literal[METHOD_NAMES]
@@ -64,7 +64,7 @@ class RenderSection:
     camera: CameraSpec = doc("Camera.", default_factory=CameraSpec)
     methods: list[RenderMethod] = doc(
         "Rendering methods to run (" + "; ".join(f"{m.name}: {m.summary}" for m in METHODS.values())
-        + "; reference: Monte Carlo ground truth).", default_factory=lambda: ["sg"])
+        + f"; {REFERENCE}: Monte Carlo ground truth).", default_factory=lambda: ["sg"])
     lights: list[LightSpec] = doc("Point / directional lights added to the environment.",
                                   default_factory=list)
     environment_exposure: float = doc("Environment radiance scale in stops (× 2^value) for "
