@@ -137,14 +137,15 @@ def reference_from_config(cfg, *, objects=None, env=None):
     from sgpipe.render.setup import environment_latlong, material_brdf, object_material_specs
     from sgpipe.scene.camera import Camera
     rs = cfg.render
+    specs = object_material_specs(cfg)
     brdfs = {}                         # one BRDF per material, shared by its objects
-    for spec in object_material_specs(cfg):
+    for spec in specs:
         if spec.name not in brdfs:
             brdfs[spec.name] = material_brdf(spec)
     return render_reference_result(
         load_trace_objects(cfg) if objects is None else objects, Camera.from_spec(rs.camera),
         environment_latlong(cfg) if env is None else env,
-        materials=[brdfs[o.material] for o in cfg.scene.objects], lights=rs.lights,
+        materials=[brdfs[s.name] for s in specs], lights=rs.lights,
         spp=rs.spp, seed=cfg.seed, workers=cfg.workers or None,
         background="env" if rs.background else "black")
 
