@@ -43,6 +43,15 @@ def _on_signal(signum, frame):
         raise Interrupted(_received[0])
 
 
+def _unraisable(hook):
+    """An Interrupted that landed in a callback from C (ctypes, __del__) cannot propagate and
+    would be printed as 'Exception ignored ...': the re-raise timer handles it, so stay quiet."""
+    def quiet(info):
+        if not isinstance(info.exc_value, Interrupted):
+            hook(info)
+    return quiet
+
+
 def _install_signal_handlers() -> dict:
     """SIGINT / SIGTERM raise Interrupted (unless inherited as ignored, e.g. under nohup);
     returns the previous handlers."""
@@ -51,6 +60,8 @@ def _install_signal_handlers() -> dict:
         return {}
     _received.clear()
     old = {s: signal.getsignal(s) for s in (*_SIGNALS, signal.SIGALRM)}
+    old["unraisablehook"] = sys.unraisablehook
+    sys.unraisablehook = _unraisable(sys.unraisablehook)
     for s in _SIGNALS:
         if old[s] is not signal.SIG_IGN:
             signal.signal(s, _on_signal)
@@ -60,6 +71,7 @@ def _install_signal_handlers() -> dict:
 def _restore_signal_handlers(old: dict) -> None:
     if old:
         signal.setitimer(signal.ITIMER_REAL, 0)
+        sys.unraisablehook = old.pop("unraisablehook")
         for s, h in old.items():
             signal.signal(s, h)
 
