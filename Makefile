@@ -41,7 +41,7 @@ test: setup
 bench: setup $(BENCH_STAMP)
 	$(PY) -m benchmarks
 
-## paper 000's experiment: docs/RESULTS.md and contact sheets
+## Töral19's experiment: docs/RESULTS.md and contact sheets
 figures: setup
 	$(PY) -m sgpipe.experiments.figures --out $(OUT)/figures
 

@@ -38,7 +38,7 @@ def info():
     return json.loads((SAMPLES / "env_info.json").read_text())
 
 
-# ---------------------------------------------------------------- helpers written from the GUIDE
+# ---------------------------------------------------------------- helpers written from docs/CONVENTIONS.md
 
 
 def latlong_solid_angles(h, w):
@@ -48,7 +48,7 @@ def latlong_solid_angles(h, w):
 
 
 def latlong_centre_dirs(h, w):
-    """GUIDE: pixel centre (u, v) -> phi = 2 pi u, theta = pi v,
+    """CONVENTIONS: pixel centre (u, v) -> phi = 2 pi u, theta = pi v,
     d = (sin theta sin phi, cos theta, -sin theta cos phi)."""
     v = (np.arange(h) + 0.5) / h
     u = (np.arange(w) + 0.5) / w
@@ -180,7 +180,7 @@ def test_sun_power_direction_and_dominance(info):
     bg = (img[ring] * dw[ring, None]).sum(0) / dw[ring].sum()  # local sky level
     excess = ((img[window] - bg) * dw[window, None]).sum(0)
     np.testing.assert_allclose(excess, analytic, rtol=0.02)
-    # the sun's brightest texels sit where the GUIDE's mapping puts direction s
+    # the sun's brightest texels sit where the conventions' mapping puts direction s
     wts = (img[window] - bg).sum(1) * dw[window]
     centroid = (latlong_centre_dirs(h, w)[window] * wts[:, None]).sum(0)
     assert np.degrees(np.arccos(centroid @ s / np.linalg.norm(centroid))) < 0.1

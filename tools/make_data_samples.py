@@ -199,7 +199,7 @@ def main(argv: list[str] | None = None) -> int:
     info = {"definitions": {
         "power_rgb": "integral over the sphere of L dw = sum(texel * exact texel solid angle)",
         "irradiance_up_rgb": "integral of L max(cos theta, 0) dw: irradiance at normal +Y",
-        "latlong": "GUIDE: phi = 2 pi u, theta = pi v, d = (sin t sin p, cos t, -sin t cos p)",
+        "latlong": "CONVENTIONS: phi = 2 pi u, theta = pi v, d = (sin t sin p, cos t, -sin t cos p)",
     }}
     info.update(make_envmaps(out))
     _write_text(out / "env_info.json", json.dumps(info, indent=2, sort_keys=True) + "\n")

@@ -1,6 +1,6 @@
 """Procedural HDR lat-long environment maps for data_samples/ (sky + sun, studio, white).
 
-Lat-long convention (GUIDE): texel (row i, column j) of an H x W map covers
+Lat-long convention (docs/CONVENTIONS.md): texel (row i, column j) of an H x W map covers
 theta in [pi i/H, pi (i+1)/H], phi in [2 pi j/W, 2 pi (j+1)/W], direction
 (sin t sin p, cos t, -sin t cos p). Every texel value is the mean radiance over its footprint,
 estimated with equal-solid-angle strata (uniform in phi and cos theta), so integrals computed
@@ -15,7 +15,7 @@ from canonical import cross3, dot3
 
 
 def direction(theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """Unit direction for polar angle theta (from +Y) and azimuth phi (GUIDE lat-long)."""
+    """Unit direction for polar angle theta (from +Y) and azimuth phi (CONVENTIONS lat-long)."""
     theta, phi = np.broadcast_arrays(np.asarray(theta, np.float64), np.asarray(phi, np.float64))
     st = np.sin(theta)
     return np.stack([st * np.sin(phi), np.cos(theta), -st * np.cos(phi)], -1)

@@ -1,6 +1,6 @@
 """Sample meshes for data_samples/: UV sphere, tessellated Utah teapot, floor plane; plain OBJ writer.
 
-Conventions (docs GUIDE): +Y up, counter-clockwise faces seen from outside (outward geometric
+Conventions (docs/CONVENTIONS.md): +Y up, counter-clockwise faces seen from outside (outward geometric
 normal = (b - a) x (c - a)), vertex normals unit length and outward. OBJ `vt` uses the usual
 v-up convention (v = 0 is the bottom row of an image).
 """

@@ -73,7 +73,7 @@ Total size of the files below: {total / (1 << 20):.2f} MiB.
 
 ## Conventions
 
-- Lat-long maps follow the GUIDE: texel (row i, column j) of an H x W map covers
+- Lat-long maps follow docs/CONVENTIONS.md: texel (row i, column j) of an H x W map covers
   theta in [pi i/H, pi (i+1)/H], phi in [2 pi j/W, 2 pi (j+1)/W]; direction
   (sin theta sin phi, cos theta, -sin theta cos phi); row 0 is +Y, u = 0 is -Z.
   Each texel stores the **mean** radiance over its footprint (equal-solid-angle strata), so
@@ -85,7 +85,7 @@ Total size of the files below: {total / (1 << 20):.2f} MiB.
   per `v` (`f a/a/a`). +Y up.
 - `sphere.obj`: vt = (phi / 2 pi, 1 - theta / pi), so a lat-long texture shows direction d at
   the surface point d; the seam column is duplicated and each pole triangle has its own pole
-  vertex. dP/du is the azimuthal direction (the GUIDE's default sphere tangent). Note
+  vertex. dP/du is the azimuthal direction (the conventions' default sphere tangent). Note
   dP/du x dP/dv points *inward* (lat-long images are mirror images seen from outside).
 - `floor.obj`: x, z in [-3, 3], vt = ((x + 3) / 6, (3 - z) / 6): dP/du = +X, dP/dv = -Z = n x t.
 - `teapot.obj`: Newell's Z-up data rotated to Y-up ((x, y, z) -> (x, z, -y), spout toward +X),
@@ -97,7 +97,7 @@ Total size of the files below: {total / (1 << 20):.2f} MiB.
   two axis poles (lid knob top, bottom centre) snapped to +-Y. Not watertight (the classic gap
   between lid and rim, the open spout, handle and spout ends inside the body); each part is
   consistently wound and outward. No `vt` (the per-patch parameterisation has seams; use the
-  GUIDE's azimuthal tangent rule). Newell's bottom patches were added later by others.
+  conventions' azimuthal tangent rule). Newell's bottom patches were added later by others.
 - Normal map: texel (row r, col c) is at u = (c + 0.5) / 256, v = 1 - (r + 0.5) / 256;
   n = normalize(-dh/du, -dh/dv, 1) in the frame (dP/du, dP/dv, n): red along +u, green along
   +v (on `floor.obj` these are t = +X and b = n x t = -Z). Decode

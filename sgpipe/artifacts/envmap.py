@@ -133,7 +133,7 @@ def read_pyramid(folder: str | Path, *, key: str = KEY) -> PyramidArtifacts:
                             slopes=slopes, raw=raw, **points)
 
 
-# -- box MIP chains (paper 000 eq 6–11) -------------------------------------------------------
+# -- box MIP chains (Töral19 eq 6–11) -------------------------------------------------------
 @dataclass
 class MipArtifacts:
     """One stored MIP chain: kind "cube" ("cube6v_b1" levels, face res N/2^m) or "dp" ((n, 2n, 3)

@@ -1,6 +1,6 @@
 """The fit stage's artifacts (`<out>/fit/`, docs/ARTIFACTS.md fit/): per material
 `<material>/` the microfacet factor M_o (Wang09 eq 9), the NDF SG lobes (Wang09 eq 12/16), the
-per-view vMF mixtures (paper 000 eq 3) and, for MERL, the tabulated model (Wang09 eq 13–14);
+per-view vMF mixtures (Töral19 eq 3) and, for MERL, the tabulated model (Wang09 eq 13–14);
 `materials.json` lists the materials in config order."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Environment-map parameterisations: lat-long (GUIDE), OpenGL cubemap, dual paraboloid (paper 000 eq 9–11).
+"""Environment-map parameterisations: lat-long (docs/CONVENTIONS.md), OpenGL cubemap, dual paraboloid (Töral19 eq 9–11).
 
 Texel (row i, column j) of any map has its centre at ((j + 0.5)/W, (i + 0.5)/H) in [0,1]².
 """
@@ -16,7 +16,7 @@ def _unit(v):
 
 # --- lat-long --------------------------------------------------------------------------------
 def latlong_dir(u, v):
-    """GUIDE: φ = 2πu, θ = πv, d = (sinθ sinφ, cosθ, −sinθ cosφ); v = 0 is +Y, u = 0 is −Z."""
+    """CONVENTIONS: φ = 2πu, θ = πv, d = (sinθ sinφ, cosθ, −sinθ cosφ); v = 0 is +Y, u = 0 is −Z."""
     phi = _TWO_PI * np.asarray(u, float)
     theta = np.pi * np.asarray(v, float)
     st = np.sin(theta)
@@ -100,7 +100,7 @@ def cubemap_solid_angles(res):
     return np.broadcast_to(cubemap_face_solid_angles(res), (6, res, res)).copy()
 
 
-# --- dual paraboloid (Heidrich–Seidel, scale b as in paper 000 eq 11 / Colbert–Křivánek) -----
+# --- dual paraboloid (Heidrich–Seidel, scale b as in Töral19 eq 11 / Colbert–Křivánek) -----
 def dual_paraboloid_dir(hemi, s, t, b=1.0):
     """(hemi, s, t) → direction; hemi 0 = front (+Z), 1 = back (−Z); row 0 (t = 0) is +Y.
 

@@ -120,10 +120,10 @@ def concentric_texel_solid_angle(res):
 
 # --- Local shading frame ------------------------------------------------------------------
 def tangent_frame(n, t_hint=None):
-    """GUIDE frame: returns (t, b) with b = n × t, both unit and ⟂ n.
+    """CONVENTIONS frame: returns (t, b) with b = n × t, both unit and ⟂ n.
 
     Default tangent: the azimuthal direction about +Y, t = normalize(n × ŷ). This is the
-    direction of increasing lat-long u (φ) of the GUIDE mapping, so a sphere with lat-long
+    direction of increasing lat-long u (φ) of the CONVENTIONS mapping, so a sphere with lat-long
     UVs gets the same tangent from its UVs; b = n × t then points along increasing v (south).
     Poles (|n × ŷ| < 1e-8) use t = +X projected onto the tangent plane. With t_hint, t is
     t_hint Gram–Schmidt-orthogonalised against n (falling back to the default if ∥ n).

@@ -1,5 +1,5 @@
 """Environment stage algorithms: map conversions, the SG-prefiltered Γ_L pyramid (Wang09
-eq 34–35), paper 000's lobe-sized MIP lookups and FIS lod, SG / SH light fits."""
+eq 34–35), Töral19's lobe-sized MIP lookups and FIS lod, SG / SH light fits."""
 from sgpipe.envmap.maps import (cubemap_to_dual_paraboloid, cubemap_to_latlong,
                                 dual_paraboloid_to_cubemap, latlong_to_cubemap, read_environment,
                                 sample_cubemap, sample_dual_paraboloid)

@@ -1,6 +1,6 @@
 """Compiled cubemap helpers shared by the pyramid, MIP chain and conversions (numba cores).
 
-Faces follow the OpenGL table (GUIDE): face f has major axis A_f and the face coordinates
+Faces follow the OpenGL table (docs/CONVENTIONS.md): face f has major axis A_f and the face coordinates
 sc = v·U_f / v·A_f, tc = v·V_f / v·A_f with the (U, V, A) rows below.
 """
 from __future__ import annotations
@@ -111,7 +111,7 @@ def sample_bordered(img, n, border, dirs, cubic, out):
 
 @njit(cache=True)
 def latlong_bilinear(img, x, y, z, out):
-    """Bilinear lat-long sample (GUIDE mapping) with φ wrap-around and reflection across the
+    """Bilinear lat-long sample (CONVENTIONS mapping) with φ wrap-around and reflection across the
     poles (a row 'above' row 0 is row 0 seen from φ + π), so seams and poles are continuous."""
     H, W, C = img.shape
     theta = np.arctan2(np.sqrt(x * x + z * z), y)

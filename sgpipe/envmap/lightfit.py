@@ -47,7 +47,7 @@ def irradiance(dirs: np.ndarray, omega: np.ndarray, radiance: np.ndarray,
 
 
 def irradiance_map(faces: np.ndarray, h: int = 32, w: int = 64, res: int = 64):
-    """Exact irradiance as a lat-long map (h, w, 3) (GUIDE mapping of the normal)."""
+    """Exact irradiance as a lat-long map (h, w, 3) (CONVENTIONS mapping of the normal)."""
     d, om, rad = texel_masses(faces, res)
     return irradiance(d, om, rad, latlong_texel_dirs(h, w))
 

@@ -1,4 +1,4 @@
-"""Environment-map I/O and conversions: lat-long ↔ cubemap ↔ dual paraboloid (paper 000 eq 11).
+"""Environment-map I/O and conversions: lat-long ↔ cubemap ↔ dual paraboloid (Töral19 eq 11).
 
 Cubemaps are (6, n, n, C) arrays in OpenGL face order (rows ↔ t, columns ↔ s, as
 `sgpipe.core.maps.cubemap_texel_dirs`); `faces_to_image` stacks them vertically for EXR files.
@@ -78,7 +78,7 @@ def cubemap_to_latlong(faces: np.ndarray, h: int, w: int) -> np.ndarray:
 
 def cubemap_to_dual_paraboloid(faces: np.ndarray, res: int, b: float = 1.0, *,
                                supersample: int = 2) -> np.ndarray:
-    """Cubemap → dual paraboloid (2, res, res, C) (paper 000 eq 11 with scale b): each texel
+    """Cubemap → dual paraboloid (2, res, res, C) (Töral19 eq 11 with scale b): each texel
     is the solid-angle-weighted mean (dω ∝ (1 + ρ²)^−2) of ss×ss bilinear cube samples."""
     from sgpipe.core.maps import dual_paraboloid_dir
     from sgpipe.envmap.mip import bordered_box_level

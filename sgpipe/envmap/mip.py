@@ -81,7 +81,7 @@ def lobe_solid_angle(kappa, a: float = 0.9):
 
 
 def cube_distortion(d):
-    """Cubemap analogue of paper 000's d(i): exact texel solid angle = D(d)/N² with
+    """Cubemap analogue of Töral19's d(i): exact texel solid angle = D(d)/N² with
     D(d) = 4·max(|d_x|, |d_y|, |d_z|)³ (gnomonic face: dω = dA·cos³ of the angle to the axis)."""
     d = np.asarray(d, float)
     return 4.0 * np.max(np.abs(d), axis=-1) ** 3
@@ -89,7 +89,7 @@ def cube_distortion(d):
 
 @dataclass
 class MipChain:
-    """A box-filtered MIP chain with paper 000's lod rule (eq 10) and trilinear lookup.
+    """A box-filtered MIP chain with Töral19's lod rule (eq 10) and trilinear lookup.
 
     kind "cube": levels are bordered cube strips (6·(n+2), n+2, 3); kind "dp": (n, 2n, 3).
     """

@@ -5,7 +5,7 @@
 Spheres under the sample environments (data_samples/sky_sun.exr, studio.exr) with Ward
 α ∈ {0.01, 0.05, 0.1, 0.15, 0.2}, anisotropic Ward (α_x = 0.01, α_y = 0.2) and the same α for
 Beckmann and GGX (kd = 0, ks = 1, no Fresnel: the lobes alone), rendered by `reference`, `fis`,
-`sg`, `gmm` and `gmm1` (paper 000's single MIP lookup per lobe) through the real stages: one
+`sg`, `gmm` and `gmm1` (Töral19's single MIP lookup per lobe) through the real stages: one
 config per environment is built programmatically
 (all materials in `fit:`), `fit` and `precompute` run once, then `render` runs per material and
 method. Writes `<out>/<env>/...` (stage outputs), contact sheets (reference | method |
@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "data_samples"
 WARD_ALPHAS = (0.01, 0.05, 0.1, 0.15, 0.2)
 METHODS = ("fis", "sg", "gmm", "gmm1")
-# table column → (render method, extra render keys): gmm1 = paper 000's single MIP lookup
+# table column → (render method, extra render keys): gmm1 = Töral19's single MIP lookup
 VARIANTS = {"gmm1": ("gmm", {"gmm_taps": 1})}
 ENVS = {"sky_sun": 0.0, "studio": -1.0}  # environment -> preview exposure (stops)
 

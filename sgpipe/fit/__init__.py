@@ -3,7 +3,7 @@
     from sgpipe.fit import spherical_em, fit_ndf_sg, fit_view_gmm
     mix = spherical_em(x, weights, n_lobes=8)          # Han07 Alg. 1 (+ eq 22, eq 23)
     sg = fit_ndf_sg(brdf.ndf_model, method="auto")      # Wang09 eq 12 / LM / L-BFGS-B
-    gmm = fit_view_gmm(brdf, n_theta=16, n_lobes=8)     # paper 000 eq 3, per view o_j
+    gmm = fit_view_gmm(brdf, n_theta=16, n_lobes=8)     # Töral19 eq 3, per view o_j
 
 The compiled EM core (`_em_jit.em_vmf`) is reusable by other stages (e.g. normal-map
 filtering): weighted unit samples, optional per-sample feature vectors and neighbour lobes.

@@ -1,5 +1,5 @@
 """Spherical EM for mixtures of vMF lobes (Han07 Algorithm 1 with weighted samples, eq 22–23)
-and the sort-and-split initialisation of paper 000 §IV."""
+and the sort-and-split initialisation of Töral19 §IV."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""Per-view vMF mixtures of ρ(i, o_j)(n·i) (paper 000 §IV eq 3–5), independent or coherent
-across neighbouring views (Han07 eq 23 alignment prior; paper 000's stated future work)."""
+"""Per-view vMF mixtures of ρ(i, o_j)(n·i) (Töral19 §IV eq 3–5), independent or coherent
+across neighbouring views (Han07 eq 23 alignment prior; Töral19's stated future work)."""
 
 from __future__ import annotations
 
@@ -166,7 +166,7 @@ def slice_integral(brdf, o, include_diffuse: bool):
 
 
 def _amplitudes(weight, colour, integral):
-    """alpha_kc = π_k y_kc (eq 22 colours) rescaled so Σ_k alpha_kc = ∫ρ_c cos (paper 000)."""
+    """alpha_kc = π_k y_kc (eq 22 colours) rescaled so Σ_k alpha_kc = ∫ρ_c cos (Töral19)."""
     a = weight[:, None] * colour
     s = a.sum(axis=0)
     return a * np.where(s > 0, integral / np.where(s > 0, s, 1.0), 0.0)

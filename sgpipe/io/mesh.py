@@ -1,5 +1,5 @@
 """Scene geometry shared by the visibility and render stages: load, transform, validate,
-vertex normals and tangents (GUIDE: tangents from UVs when present, else azimuthal around +Y).
+vertex normals and tangents (CONVENTIONS: tangents from UVs when present, else azimuthal around +Y).
 
 Bad meshes never crash or pass silently: empty meshes, non-finite vertices and meshes with no
 usable triangle raise BadInput (naming file and key); degenerate triangles, unreferenced
@@ -38,7 +38,7 @@ class MeshGeometry:
 
     @property
     def bitangents(self) -> np.ndarray:
-        """GUIDE: b = n × t."""
+        """CONVENTIONS: b = n × t."""
         return np.cross(self.normals, self.tangents)
 
     @property

@@ -8,7 +8,7 @@
 * `materials`: one per object, aligned with `objects`: a BRDF object of the registry
   (`eval/sample/pdf`, e.g. `sgpipe.brdf.brdf_from_spec(spec)` of a config material), or
   `(model, params)` / `{"model", "params"}`, built in each worker with `sgpipe.brdf.make_brdf`.
-* `env`: lat-long (H, W, 3) linear radiance array or EXR path (GUIDE mapping), or None (black).
+* `env`: lat-long (H, W, 3) linear radiance array or EXR path (CONVENTIONS mapping), or None (black).
   The environment is *piecewise constant*: the radiance of a direction is its texel's value
   (the sample maps store texel means, so Σ texel·Ω is the exact integral).
 * `lights`: point / directional lights, dicts or objects with `type` ("directional" | "point"),

@@ -194,7 +194,7 @@ def shade_tile(task) -> dict:
                               for k in ("position", "normal", "tangent", "bitangent",
                                         "geo_normal", "view"))
     n = n / np.linalg.norm(n, axis=1, keepdims=True)
-    t = t - np.einsum("ij,ij->i", t, n)[:, None] * n  # GUIDE frame: t ⟂ n, b = n × t
+    t = t - np.einsum("ij,ij->i", t, n)[:, None] * n  # CONVENTIONS frame: t ⟂ n, b = n × t
     t = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-30)
     b = np.cross(n, t)
     npx = len(pid)

@@ -1,5 +1,5 @@
 """Environment artifacts (`<out>/envmap/`, docs/ARTIFACTS.md envmap/) → packed arrays the
-OpenCL kernels read: the normalised Γ_L pyramid (Wang09 eq 34–35), the box MIP chain (paper 000
+OpenCL kernels read: the normalised Γ_L pyramid (Wang09 eq 34–35), the box MIP chain (Töral19
 eq 6–11, FIS) and the diffuse SG light fit (Wang09 §6). Read through the contract's readers
 (sgpipe.artifacts.envmap), not via sgpipe.envmap.
 

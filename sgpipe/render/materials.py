@@ -3,7 +3,7 @@ SG lobe table and side tables the kernels read (layout: kernels/include/microfac
 
 One `Material` per `fit.materials` entry: the microfacet factor M_o (microfacet.npz), the NDF
 SG lobes D* (ndf_sg.npz, Wang09 eq 12/16), optionally the per-view vMF mixtures (view_gmm.npz,
-paper 000 eq 3) and a tabulated exact NDF D(h) for filtered importance sampling.
+Töral19 eq 3) and a tabulated exact NDF D(h) for filtered importance sampling.
 """
 
 from __future__ import annotations

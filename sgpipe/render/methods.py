@@ -81,7 +81,7 @@ SG_PARAMS = """
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sg", "Wang09 SG + SSDF shadows", "sg_shade",
            (PIXEL_PARAMS, SG_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",)),
-    Method("gmm", "paper 000 per-view vMF mixtures with MIP lookups", "gmm_shade",
+    Method("gmm", "Töral19 per-view vMF mixtures with MIP lookups", "gmm_shade",
            (PIXEL_PARAMS, MIP_PARAMS, "const int interp", TAIL_PARAMS),
            defines=("MAX_GMM_LOBES", "GMM_TAPS"), baseline_shadows=True, needs_view_gmm=True),
     Method("fis", "Colbert–Křivánek filtered importance sampling", "fis_shade",

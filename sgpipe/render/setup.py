@@ -145,7 +145,7 @@ def material_brdf(spec):
 
 
 def latlong_lookup(latlong: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-    """Radiance of the lat-long texel containing each direction (piecewise constant, GUIDE)."""
+    """Radiance of the lat-long texel containing each direction (piecewise constant, CONVENTIONS)."""
     from sgpipe.core.maps import dir_to_latlong
     h, w = latlong.shape[:2]
     u, v = dir_to_latlong(np.asarray(dirs, float))

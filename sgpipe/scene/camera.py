@@ -1,4 +1,4 @@
-"""Pinhole camera (GUIDE: eye/target/up/fov_deg vertical/width/height; pixel (0,0) top-left).
+"""Pinhole camera (CONVENTIONS: eye/target/up/fov_deg vertical/width/height; pixel (0,0) top-left).
 
     cam = Camera.from_spec(cfg.render.camera)        # or Camera(eye=..., target=..., ...)
     origins, dirs = cam.rays()                        # (H, W, 3) float32 each, dirs unit length

@@ -10,7 +10,7 @@
     tracer = Tracer(objs)                             # reusable (e.g. for shadow rays)
     blocked = tracer.occluded(points, dirs, tmax=np.inf, tnear=1e-4)
 
-Conventions (GUIDE): shading frame (n, t, b = n × t); a mesh's tangent is its per-vertex
+Conventions (docs/CONVENTIONS.md): shading frame (n, t, b = n × t); a mesh's tangent is its per-vertex
 tangent when given, else the azimuthal rule of `sgpipe.core.sphere.tangent_frame`; an analytic
 sphere has lat-long UVs of its object-space normal (u = φ/2π, v = 1 − θ/π as
 data_samples/sphere.obj: OBJ v = 0 is the image's bottom row) and the world
@@ -127,7 +127,7 @@ def _cross(a, b):
 
 
 def _frames(n, hint, has_hint):
-    """GUIDE frames: t = hint Gram–Schmidt-orthogonalised against n where usable, else the
+    """CONVENTIONS frames: t = hint Gram–Schmidt-orthogonalised against n where usable, else the
     azimuthal rule of core.sphere.tangent_frame; b = n × t."""
     t = hint - np.einsum("ij,ij->i", hint, n)[:, None] * n
     ln = np.sqrt(np.einsum("ij,ij->i", t, t))

@@ -1,4 +1,4 @@
-"""Lat-long (GUIDE), OpenGL cubemap and dual-paraboloid maps: conventions, round trips, solid angles."""
+"""Lat-long (docs/CONVENTIONS.md), OpenGL cubemap and dual-paraboloid maps: conventions, round trips, solid angles."""
 import numpy as np
 import pytest
 
@@ -98,7 +98,7 @@ def test_dual_paraboloid(rng, b):
             num = _texel_solid_angle_numeric(lambda s, t: dual_paraboloid_dir(hm, s, t, b),
                                              j / res, (j + 1) / res, i / res, (i + 1) / res)
             assert om[hm, i, j] == pytest.approx(num, rel=1e-8)
-    # paper 000 eq 9 / 11: Ω_texel ≈ d(i)/(w·h) at the texel centre (midpoint rule, O(1/res²))
+    # Töral19 eq 9 / 11: Ω_texel ≈ d(i)/(w·h) at the texel centre (midpoint rule, O(1/res²))
     res = 256
     om = dual_paraboloid_solid_angles(res, b)
     dirs = dual_paraboloid_texel_dirs(res, b)

@@ -1,4 +1,4 @@
-"""Per-view vMF mixtures (paper 000 §IV): accuracy, amplitudes, colours, coherence, layout."""
+"""Per-view vMF mixtures (Töral19 §IV): accuracy, amplitudes, colours, coherence, layout."""
 
 from __future__ import annotations
 

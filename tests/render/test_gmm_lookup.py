@@ -1,4 +1,4 @@
-"""The gmm kernel's per-lobe environment integral (gmm_shade.cl `gmm_lobe_integral`, paper 000
+"""The gmm kernel's per-lobe environment integral (gmm_shade.cl `gmm_lobe_integral`, Töral19
 eq 6–10 on the box MIP chain) against its numpy mirror `sgpipe.envmap.mip.MipChain.lobe_integral`
 (whose error vs ∫vMF(ω; μ, κ) L(ω) dω by quadrature is tested in tests/envmap/test_mip.py)."""
 
@@ -67,7 +67,7 @@ def test_kernel_lobe_integral_matches_numpy_mirror():
     got = _kernel_lobe_integral(chain, dirs, kappa)
     want = chain.lobe_integral(dirs, kappa)
     np.testing.assert_allclose(got, want, rtol=2e-3, atol=2e-3 * np.abs(want).mean())
-    # GMM_TAPS = 1 is paper 000's single trilinear lookup at the eq 10 level (a = 0.9)
+    # GMM_TAPS = 1 is Töral19's single trilinear lookup at the eq 10 level (a = 0.9)
     one = _kernel_lobe_integral(chain, dirs, kappa, taps=1)
     np.testing.assert_allclose(one, chain.lobe_lookup(dirs, kappa, 0.9), rtol=2e-3,
                                atol=2e-3 * np.abs(want).mean())

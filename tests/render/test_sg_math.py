@@ -100,7 +100,7 @@ def test_cubemap_bilinear_mip_and_lod():
     idx = np.arange(n)
     expect = (1 - fr) * levels[lo, idx] + fr * levels[np.minimum(lo + 1, len(ch.res) - 1), idx]
     np.testing.assert_allclose(tri[:, :3], expect, rtol=1e-5, atol=1e-5)
-    # paper 000 eq 8–10 with the cube distortion 4 max|d|³ / N²
+    # Töral19 eq 8–10 with the cube distortion 4 max|d|³ / N²
     ma = np.abs(d).max(1)
     lod = 0.5 * np.log2((-2 * np.pi * np.log(0.1) / lods) / (4 * ma ** 3 / 16 ** 2))
     np.testing.assert_allclose(fst[:, 3], lod, atol=1e-4)

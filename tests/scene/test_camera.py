@@ -1,4 +1,4 @@
-"""Camera rays (GUIDE conventions) and the Embree + analytic-sphere G-buffer."""
+"""Camera rays (docs/CONVENTIONS.md) and the Embree + analytic-sphere G-buffer."""
 
 import math
 

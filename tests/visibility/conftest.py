@@ -1,6 +1,6 @@
 """Analytic scenes whose visibility and SSDF are known in closed form.
 
-A vertex sits at the origin of the plane y = 0 (normal +Y). Its GUIDE frame at the pole is
+A vertex sits at the origin of the plane y = 0 (normal +Y). Its CONVENTIONS frame at the pole is
 t = +X, b = n × t = −Z, so local (x, y, z) ↔ world (x, z, −y)... i.e. world = x t + y b + z n.
 """
 

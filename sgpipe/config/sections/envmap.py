@@ -12,7 +12,7 @@ class EnvmapSection:
     """Environment map and what to precompute from it (docs/ARTIFACTS.md, `envmap/`)."""
 
     environment: InputPath = doc("Lat-long HDR environment map (EXR/HDR, 3 or 4 channels, "
-                                 "GUIDE mapping).")
+                                 "CONVENTIONS mapping).")
     cube_resolution: int = doc("Face resolution N of the finest cubemap (a power of two).",
                                128, ge=4, le=4096)
     pyramid_ratio: float = doc("Γ_L pyramid: λ ratio between consecutive levels (√2 keeps the "
@@ -40,7 +40,7 @@ class EnvmapSection:
         "levels.", 256, ge=0, le=4096)
     mip_coverage: float = doc("Paper 000 eq 7–8: fraction a of the lobe whose solid angle sets "
                               "the MIP level.", 0.9, gt=0.0, lt=1.0)
-    dp_scale: float = doc("Dual-paraboloid scale b (paper 000 eq 11; 1.2 as in GPU Gems 3).",
+    dp_scale: float = doc("Dual-paraboloid scale b (Töral19 eq 11; 1.2 as in GPU Gems 3).",
                           1.2, ge=1.0, le=2.0)
     dp_resolution: int | None = doc("Dual-paraboloid resolution per hemisphere (default: "
                                     "cube_resolution).", None, ge=4, le=4096)

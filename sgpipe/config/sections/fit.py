@@ -62,7 +62,7 @@ class ViewGmmSpec:
                          ge=0, le=256)
     theta_max_deg: float = doc("Largest view elevation (degrees).", 85.0, gt=0, le=89.9)
     component: Literal["specular", "full"] = doc(
-        "Fit the specular part only (paper 000; the renderer adds the diffuse term) or the "
+        "Fit the specular part only (Töral19; the renderer adds the diffuse term) or the "
         "whole BRDF. Models without a specular lobe always use full.", "specular")
     coherent: bool = doc("Fit views in order, each from its neighbour's lobes with the Han07 "
                          "eq 23 alignment prior, so lobe k corresponds across views.", False)

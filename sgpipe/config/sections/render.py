@@ -14,7 +14,7 @@ RenderMethod = Literal[METHOD_NAMES]
 
 @dataclass
 class CameraSpec:
-    """Pinhole camera (GUIDE: eye/target/up/fov_deg/width/height; pixel (0,0) top-left)."""
+    """Pinhole camera (CONVENTIONS: eye/target/up/fov_deg/width/height; pixel (0,0) top-left)."""
 
     eye: tuple[float, float, float] = doc("Camera position.", (0.0, 1.0, 4.0))
     target: tuple[float, float, float] = doc("Point looked at.", (0.0, 0.5, 0.0))
@@ -73,7 +73,7 @@ class RenderSection:
                                   ge=-30, le=30)
     background: bool = doc("Show the environment where primary rays miss (else black).", True)
     spp: int = doc("Samples per pixel of the `reference` method.", 256, ge=1)
-    fis_samples: int = doc("Samples per pixel N of `fis` (paper 000 uses about 40).", 40, ge=1,
+    fis_samples: int = doc("Samples per pixel N of `fis` (Töral19 uses about 40).", 40, ge=1,
                            le=4096)
     gmm_taps: int = doc("gmm: trilinear MIP taps per lobe spread over the lobe's vMF (1 = paper "
                         "000's single lobe-sized lookup, eq 6–10; 16 is 5–14 dB closer to the "

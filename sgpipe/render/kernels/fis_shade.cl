@@ -1,4 +1,4 @@
-/* Method `fis`: filtered importance sampling (Colbert & Křivánek 2007, paper 000's baseline).
+/* Method `fis`: filtered importance sampling (Colbert & Křivánek 2007, Töral19's baseline).
  * The specular lobe takes N samples from a fixed Hammersley set: 3N/4 drawn from the NDF's SG
  * lobes read as vMFs (h-space, i = ψ(h), pdf_i = pdf_h / (4|o·h|)), N/4 cosine-weighted
  * (defensive, for the NDF's tails), combined by the multi-sample balance heuristic:

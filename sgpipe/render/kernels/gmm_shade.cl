@@ -1,4 +1,4 @@
-/* Method `gmm` (paper 000 §V): per pixel the view direction in tangent space selects the
+/* Method `gmm` (Töral19 §V): per pixel the view direction in tangent space selects the
  * fitted per-view vMF mixture ρ(i, o_j)(n·i) ≈ Σ_k α_k vMF(i; μ_k, κ_k) (eq 3) — nearest view
  * (its lobes rotated with the view's mirror direction), or bilinear across views when the fit
  * is coherent — and each lobe is integrated against the environment by a lobe-sized lookup
@@ -13,7 +13,7 @@
 #include "microfacet.h"
 #include "shading.h"
 
-/* Lobe integral (see gmm_lobe_integral): taps per lobe (1 = paper 000's single lookup) and
+/* Lobe integral (see gmm_lobe_integral): taps per lobe (1 = Töral19's single lookup) and
  * the tap level's texel size in units of the lobe's σ. Measured on the box chain (N = 128,
  * studio / sky_sun, κ 5…1000): relative RMS error vs quadrature 0.17–0.71 with one lookup,
  * 0.02–0.12 (studio) / 0.14–0.34 (sun) with 16 taps (docs/ARTIFACTS.md envmap/). */
@@ -45,8 +45,8 @@ inline float3 gmm_trilinear(__global const float4 *mip, int off0, int n0, int of
     return c + f * cube_bilinear_st(mip, off1, n1, face, s, t);
 }
 
-/* ∫ vMF(ω; a, κ) L(ω) dω from the box MIP chain (paper 000 eq 6–10, made lobe-shaped).
- * GMM_TAPS == 1: paper 000's single trilinear lookup at the eq 10 level (a box of ~Ω_s: its
+/* ∫ vMF(ω; a, κ) L(ω) dω from the box MIP chain (Töral19 eq 6–10, made lobe-shaped).
+ * GMM_TAPS == 1: Töral19's single trilinear lookup at the eq 10 level (a box of ~Ω_s: its
  * shape and grid alignment, not the lobe's, set the result). Otherwise GMM_TAPS equal-weight
  * taps at the vMF's radial quantiles (golden-angle azimuths), each a trilinear fetch at the
  * level whose texel is h = GMM_TAP_C·σ (σ² = 1/κ, eq 9 distortion); the taps follow a vMF of

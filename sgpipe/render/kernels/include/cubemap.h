@@ -4,7 +4,7 @@
  * t = (i − 0.5)/n. The 1-texel border already holds the neighbouring/extended values, so a
  * plain per-face bilinear fetch is seamless. All levels of a chain are packed in one float4
  * buffer; level l starts at texel off[l].
- * Also: Γ_L pyramid lookups (Wang09 eq 34–35) and box-MIP lookups (paper 000 eq 6–11). */
+ * Also: Γ_L pyramid lookups (Wang09 eq 34–35) and box-MIP lookups (Töral19 eq 6–11). */
 #ifndef SGPIPE_CUBEMAP_H
 #define SGPIPE_CUBEMAP_H
 
