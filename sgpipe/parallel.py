@@ -69,16 +69,16 @@ def _worker_init() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _stop_pool(ex: ProcessPoolExecutor, futures) -> None:
-    """Cancel what has not started, kill the workers (their chunks are lost anyway), return
-    once they are gone; shutdown(wait=True) would instead wait for every queued chunk."""
-    for f in futures:
-        f.cancel()
+def _stop_pool(ex: ProcessPoolExecutor) -> None:
+    """Drop the queued chunks, kill the workers (their chunks are lost anyway) and return once
+    they are gone; shutdown(wait=True) would instead wait for every queued chunk. (Futures are
+    not cancelled here: the executor's own thread cancels them, and it fails on futures
+    cancelled behind its back when it finds the pool broken.)"""
     procs = list((ex._processes or {}).values())
+    ex.shutdown(wait=False, cancel_futures=True)
     for p in procs:
         with contextlib.suppress(Exception):
             p.terminate()
-    ex.shutdown(wait=False, cancel_futures=True)
     for p in procs:
         p.join(_KILL_GRACE_S)
         if p.is_alive():
@@ -109,7 +109,6 @@ def map_chunks(fn: Callable[[Any], Any], items: Sequence[Any] | Iterable[Any], *
         else:
             ex = ProcessPoolExecutor(max_workers=n, mp_context=_WorkerContext(),
                                      initializer=_worker_init)
-            futures = []
             try:
                 futures = [ex.submit(fn, it) for it in items]
                 for f in futures:
@@ -117,7 +116,7 @@ def map_chunks(fn: Callable[[Any], Any], items: Sequence[Any] | Iterable[Any], *
                     if bar:
                         bar.update(1)
             except BaseException:
-                _stop_pool(ex, futures)
+                _stop_pool(ex)
                 raise
             ex.shutdown(wait=True)
     finally:

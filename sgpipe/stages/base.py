@@ -156,7 +156,7 @@ def _signals_deferred():
     pending: list[int] = []
     old = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGALRM)}
     deferred = [s for s, h in old.items()
-                if h is not signal.SIG_IGN and (s != signal.SIGALRM or callable(h))]
+                if h not in (signal.SIG_IGN, None) and (s != signal.SIGALRM or callable(h))]
     for s in deferred:
         signal.signal(s, lambda signum, frame: pending.append(signum))
     try:

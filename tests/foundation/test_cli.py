@@ -1,8 +1,13 @@
-"""Bad input through the real CLI: one line naming file and key, exit 2, nothing written."""
+"""Bad input through the real CLI: one line naming file and key, exit 2, nothing written.
+Signal handling of the entry point (the subprocess tests are in test_signals.py)."""
 
+import ctypes
+import os
+import signal
 import subprocess
 import sys
 import textwrap
+import time
 
 import numpy as np
 import pytest
@@ -110,3 +115,61 @@ def test_empty_mesh(tmp_path):
     res = sgpipe("precompute", p, "--out", out)
     assert_bad_input(res, "empty.obj")
     assert not (out / "visibility").exists()
+
+
+def _spin(seconds: float) -> None:
+    t_end = time.monotonic() + seconds
+    while time.monotonic() < t_end:
+        pass
+
+
+@pytest.fixture
+def handlers(monkeypatch):
+    """The CLI's signal handlers in this process; `cli.unraisable` lists what reached the
+    unraisable hook ('Exception ignored ...' messages) underneath the CLI's."""
+    from sgpipe import cli
+    unraisable = []
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
+    old = cli._install_signal_handlers()
+    monkeypatch.setattr(cli, "unraisable", unraisable, raising=False)
+    yield cli
+    cli._restore_signal_handlers(old)
+
+
+def test_swallowed_interruption_is_raised_again(handlers):
+    """A library that catches BaseException (trimesh does around its imports) swallows the
+    first signal's exception: it is raised again once no exception is being handled, but never
+    while one is (cleanup in except / finally / __exit__ must not be cut short)."""
+    cli = handlers
+    try:
+        os.kill(os.getpid(), signal.SIGINT)
+        _spin(1.0)
+        pytest.fail("the signal did not interrupt")
+    except BaseException as e:    # the swallowing library
+        assert isinstance(e, cli.Interrupted) and e.signum == signal.SIGINT
+    try:
+        raise RuntimeError("some cleanup under way")
+    except RuntimeError:
+        _spin(0.8)                 # three timer ticks: none raises here
+    with pytest.raises(cli.Interrupted):
+        _spin(2.0)
+
+
+def test_interruption_in_a_c_callback_is_quiet(handlers):
+    """An Interrupted raised inside a ctypes callback cannot propagate (CPython prints
+    'Exception ignored ...'); the CLI stays quiet and raises it again afterwards."""
+    cli = handlers
+    cmp_t = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(ctypes.c_int),
+                             ctypes.POINTER(ctypes.c_int))
+
+    def cmp(a, b):
+        if not cli._received:
+            os.kill(os.getpid(), signal.SIGINT)
+            _spin(0.05)
+        return a[0] - b[0]
+
+    arr = (ctypes.c_int * 2)(2, 1)
+    ctypes.CDLL(None).qsort(arr, 2, ctypes.sizeof(ctypes.c_int), cmp_t(cmp))
+    with pytest.raises(cli.Interrupted):
+        _spin(2.0)
+    assert cli.unraisable == []

@@ -1,4 +1,14 @@
-"""The executor keeps input order and gives the same result for any worker count."""
+"""The executor keeps input order and gives the same result for any worker count; workers
+ignore SIGINT, and a failure or an interruption stops them at once."""
+
+import _thread
+import multiprocessing
+import signal
+import threading
+import time
+from pathlib import Path
+
+import pytest
 
 from sgpipe.parallel import chunk_ranges, map_chunks
 
@@ -15,3 +25,56 @@ def test_map_chunks_order_and_worker_independence():
     pooled = map_chunks(_square_sum, chunks, workers=2)
     assert serial == pooled
     assert sum(serial) == sum(i * i for i in range(1000))
+
+
+def _slow(i):
+    time.sleep(0.3)
+    if i == 3:
+        raise ValueError("chunk 3 failed")
+    return i
+
+
+def _sigint_ignored(_):
+    return signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+
+
+def _running_workers() -> list[int]:
+    """Child processes still running (not zombies). By /proc rather than Process.exitcode: the
+    executor's own thread may reap a killed worker, leaving its Process object without one."""
+    alive = []
+    for p in multiprocessing.active_children():
+        try:
+            state = Path(f"/proc/{p.pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except OSError:
+            continue
+        if state != "Z":
+            alive.append(p.pid)
+    return alive
+
+
+def test_workers_ignore_sigint():
+    """A terminal's Ctrl-C reaches the whole process group: the parent decides, not them."""
+    assert map_chunks(_sigint_ignored, range(4), workers=2) == [True] * 4
+
+
+def test_failure_stops_the_pool_at_once():
+    """A failing chunk (or an interruption) cancels the queued chunks and kills the workers
+    instead of waiting for all 200 × 0.3 s / 2 of them."""
+    t0 = time.monotonic()
+    with pytest.raises(ValueError, match="chunk 3"):
+        map_chunks(_slow, range(200), workers=2)
+    assert time.monotonic() - t0 < 10
+    assert _running_workers() == []
+
+
+def test_interrupt_stops_the_pool_at_once():
+    timer = threading.Timer(3.0, _thread.interrupt_main)   # KeyboardInterrupt in this thread
+    timer.start()
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            map_chunks(_slow, range(4, 400), workers=2)
+    finally:
+        timer.cancel()
+    assert time.monotonic() - t0 < 6
+    assert _running_workers() == []

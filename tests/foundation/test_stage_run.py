@@ -216,3 +216,28 @@ def test_unwritable_output_is_bad_input(cfg, tmp_path):
 def test_missing_input_is_bad_input(cfg, tmp_path):
     with pytest.raises(BadInput, match="input file not found"):
         _run(cfg, tmp_path / "out", {"v": 1.0}, [tmp_path / "gone.exr"])
+
+
+def test_signal_during_publish_lands_after_it(cfg, tmp_path, monkeypatch):
+    """A Ctrl-C while the outputs are hashed and the folders swapped is delivered once the
+    stage is published in full: never a half-swapped folder."""
+    import os
+    import signal
+
+    import sgpipe.stages.base as base
+    real, sent = base.file_hash, []
+
+    def hash_and_interrupt(p):
+        if not sent:
+            sent.append(p)
+            os.kill(os.getpid(), signal.SIGINT)
+        return real(p)
+
+    monkeypatch.setattr(base, "file_hash", hash_and_interrupt)
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        _run(cfg, out, {"v": 1.0})
+    assert sent
+    assert sorted(p.name for p in out.iterdir()) == ["demo"]
+    man = json.loads((out / "demo" / "manifest.json").read_text())
+    assert all(real(out / "demo" / n) == h for n, h in man["outputs"].items())
