@@ -26,7 +26,7 @@ import numpy as np
 
 from sgpipe.errors import BadInput
 from sgpipe.experiments.sheets import contact_sheet, write_results_md
-from sgpipe.io import read_exr
+from sgpipe.artifacts.render import read_image
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "data_samples"
@@ -93,14 +93,12 @@ def _render_method(cfg, out: Path, method: str) -> dict:
         return {"error": err}
     rdir = out / "render"
     timings = json.loads((rdir / "timings.json").read_text())
-    img = read_exr(rdir / f"{method}.exr")[..., :3]
+    img = read_image(rdir, method)
     sec = timings.get(f"{method}_s")
     res = {"image": img, "ms": None if sec is None else 1e3 * float(sec)}
     man = json.loads((rdir / "manifest.json").read_text())
     if method == "reference":
         res["stderr"] = man.get("report", {}).get("reference_mean_stderr")
-        if (rdir / "reference_stderr.exr").is_file():  # per-pixel map, when the stage writes it
-            res["stderr_map"] = read_exr(rdir / "reference_stderr.exr")[..., :3]
     return res
 
 

@@ -44,22 +44,14 @@ class ViewGMM:
         return th, rel
 
     def arrays(self) -> dict:
+        """The fit under the `view_gmm.npz` names, unrounded (the artifact writer stores float32
+        and makes the texture and its preview from these values)."""
         th, ph = self.mu_angles()
-        f = np.float32
-        return {"view_theta": self.view_theta.astype(f), "view_phi": self.view_phi.astype(f),
-                "view_dirs": self.view_dirs.astype(f), "alpha": self.alpha.astype(f),
-                "kappa": self.kappa.astype(f), "mu": self.mu.astype(f),
-                "mu_theta": th.astype(f), "mu_phi": ph.astype(f),
-                "albedo": self.albedo.astype(f), "rel_l2": self.rel_l2.astype(f),
-                "includes_diffuse": np.int32(self.includes_diffuse),
-                "coherent": np.int32(self.coherent)}
-
-    def texture(self) -> np.ndarray:
-        """The EXR layout: (Nθ, Nφ·K, 6) channels alpha RGB, kappa, mu_phi, mu_theta."""
-        th, ph = self.mu_angles()
-        tex = np.concatenate([self.alpha, self.kappa[..., None], ph[..., None], th[..., None]],
-                             axis=-1)
-        return tex.reshape(len(self.view_theta), len(self.view_phi) * self.n_lobes, 6)
+        return {"view_theta": self.view_theta, "view_phi": self.view_phi,
+                "view_dirs": self.view_dirs, "alpha": self.alpha, "kappa": self.kappa,
+                "mu": self.mu, "mu_theta": th, "mu_phi": ph, "albedo": self.albedo,
+                "rel_l2": self.rel_l2, "includes_diffuse": self.includes_diffuse,
+                "coherent": self.coherent}
 
 
 def _thread_map(fn, items):

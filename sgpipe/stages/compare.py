@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sgpipe.artifacts.render import image_name
 from sgpipe.errors import BadInput
 from sgpipe.io import read_exr, write_png
 from sgpipe import metrics
@@ -120,7 +121,7 @@ def compare_to_reference(run, image: np.ndarray, reference, name: str) -> dict:
         raise BadInput(f"rendered image is {np.shape(image)[1]}x{np.shape(image)[0]} but the "
                        f"reference is {ref.shape[1]}x{ref.shape[0]}", file=label,
                        key="render.compare_to")
-    d = compare_arrays(image, ref, diff_png=run.path(f"{name}.diff.png"))
+    d = compare_arrays(image, ref, diff_png=run.path(image_name(name, "diff.png")))
     d["diff_png"] = f"{name}.diff.png"
     d["reference"] = label
     safe = _json_safe(d)

@@ -137,7 +137,7 @@ def write_view_gmm(run, name: str, brdf, spec, seed: int, ndf_rep: dict) -> dict
               n_lobes=spec.lobes, n_samples=spec.samples, max_iter=spec.iterations,
               tol=spec.tolerance, align=spec.align, seed=seed, include_diffuse=include_diffuse)
     gmm = fit_view_gmm(brdf, coherent=spec.coherent, **kw)
-    artifacts.write_view_gmm(run, name, _view_gmm_fields(gmm),
+    artifacts.write_view_gmm(run, name, gmm.arrays(),
                              view_theta_max=np.radians(spec.theta_max_deg))
     th_deg = np.degrees(gmm.view_theta)
     per_view = gmm.rel_l2.reshape(len(gmm.view_theta), n_phi).max(axis=1)
@@ -176,12 +176,3 @@ def write_view_gmm(run, name: str, brdf, spec, seed: int, ndf_rep: dict) -> dict
     rep["albedo_lum"] = gmm.albedo @ LUMINANCE
     return rep
 
-
-def _view_gmm_fields(gmm) -> dict:
-    """The fit's values under the `view_gmm.npz` names, unrounded (the writer stores float32;
-    the texture preview is made from these)."""
-    th, ph = gmm.mu_angles()
-    return {"view_theta": gmm.view_theta, "view_phi": gmm.view_phi, "view_dirs": gmm.view_dirs,
-            "alpha": gmm.alpha, "kappa": gmm.kappa, "mu": gmm.mu, "mu_theta": th, "mu_phi": ph,
-            "albedo": gmm.albedo, "rel_l2": gmm.rel_l2,
-            "includes_diffuse": gmm.includes_diffuse, "coherent": gmm.coherent}

@@ -15,9 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
+from sgpipe.artifacts import render as art
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
 from sgpipe.stages.base import StageRun, log
+
 
 def _inputs(cfg, out_dir: Path) -> list[Path]:
     """Upstream manifests (they hash every artifact) and the files the scene names."""
@@ -87,10 +89,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
         bg = None
         if rs.background and bundle.env_latlong is not None:
             bg = latlong_lookup(bundle.env_latlong, dirs)
-        run.write_npz("gbuffer.npz", {
-            "hit": gb.hit, "position": gb.position, "normal": gb.normal,
-            "tangent": gb.tangent, "uv": gb.uv, "object_id": gb.object_id,
-            "triangle_id": gb.triangle_id, "barycentrics": gb.barycentrics})
+        art.write_gbuffer(run, {k: getattr(gb, k) for k in art.GBUFFER_ARRAYS})
         r = bundle.renderer
         images = {}
         if shaders:
@@ -113,9 +112,8 @@ def run(cfg, out_dir: Path, *, force: bool = False):
             images[REFERENCE] = _reference(cfg, bundle, run)
         for method in rs.methods:
             img = images[method]
-            run.write_exr(f"{method}.exr", img, exposure=rs.preview_exposure,
-                          metadata={"method": method,
-                                    **({"spp": rs.spp} if method == REFERENCE else {})})
+            art.write_image(run, method, img, exposure=rs.preview_exposure,
+                            spp=rs.spp if method == REFERENCE else None)
             run.report.setdefault("mean_rgb", {})[method] = [
                 round(float(c), 6) for c in img.reshape(-1, 3).mean(0)]
         run.report["shaded_pixels"] = int(len(frame.index))
@@ -164,7 +162,7 @@ def _reference(cfg, bundle, run) -> np.ndarray:
 def _compare(run, images: dict, truth: str) -> None:
     """Metrics of every other method against `truth` via the compare stage's hook."""
     from sgpipe.stages.compare import compare_to_reference
-    ref_path = run.path(f"{truth}.exr")
+    ref_path = run.path(art.image_name(truth))
     for method, img in images.items():
         if method == truth:
             continue

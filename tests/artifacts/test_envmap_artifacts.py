@@ -114,11 +114,6 @@ def test_light_fits_and_irradiance_round_trip(tmp_path):
         art.read_light_sg(tmp_path)
 
 
-def test_pyramid_border_is_the_contracts():
-    from sgpipe.envmap.pyramid import BORDER
-    assert BORDER == art.COEF_BORDER
-
-
 def test_store_rebuilds_the_envmap_objects(tmp_path):
     """envmap.store: a built pyramid → the contract → a Pyramid again, same lookups."""
     from sgpipe.envmap import store

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from sgpipe.core.maps import (cubemap_solid_angles, cubemap_texel_dirs, dual_paraboloid_solid_angles,
+from sgpipe.core.maps import (cubemap_texel_dirs, dual_paraboloid_solid_angles,
                               dual_paraboloid_valid_mask, latlong_solid_angles, latlong_texel_dirs)
 from sgpipe.envmap import maps
 from sgpipe.errors import BadInput

@@ -57,11 +57,15 @@ def test_coherent_fits_interpolate_better_than_independent():
     assert np.median(step) > np.cos(np.radians(20.0))
 
 
-def test_texture_layout_and_relative_azimuth():
+def test_texture_layout_and_relative_azimuth(tmp_path):
+    from sgpipe.artifacts import FolderSink
+    from sgpipe.artifacts import fit as art
+    from sgpipe.io import read_exr
     brdf = make_brdf("ggx", {"alpha_u": 0.1, "alpha_v": 0.3})
     gmm = fit_view_gmm(brdf, n_theta=3, n_phi=4, theta_max=np.radians(60.0), n_lobes=3,
                        n_samples=1024, errors=False)
-    tex = gmm.texture()
+    art.write_view_gmm(FolderSink(tmp_path), "m", gmm.arrays(), view_theta_max=np.radians(60))
+    tex = read_exr(tmp_path / art.material_file("m", art.VIEW_GMM_TEXTURE), channels=(6,))
     assert tex.shape == (3, 4 * 3, 6)
     arr = gmm.arrays()
     t, p, k = 2, 3, 1

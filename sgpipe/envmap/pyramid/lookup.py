@@ -9,11 +9,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sgpipe.artifacts.envmap import COEF_BORDER as BORDER
 from sgpipe.core.sg import dln_sg_norm, sg_integral
 from sgpipe.core.vmf import mean_resultant_length
 from sgpipe.envmap._cube_jit import sample_bordered
-
-BORDER = 2          # stored border (cubic B-spline taps −1..+2 never leave the bordered face)
 
 
 @dataclass
