@@ -109,9 +109,11 @@ def assert_intact(stage_dir: Path) -> None:
 @pytest.mark.parametrize("sig,group", [(signal.SIGINT, True), (signal.SIGTERM, False)],
                          ids=["ctrl-c-to-group", "sigterm-to-parent"])
 def test_pool_stage(tmp_path, sig, group):
-    """Visibility traces in a process pool: signalled while the workers trace."""
+    """Visibility traces in a process pool: signalled while the workers trace (a terminal's
+    Ctrl-C reaches them too; SIGTERM only the parent, which must stop them)."""
+    # long chunks: waiting for the running ones (what a plain executor shutdown does) is slow
     cfg = write(tmp_path, SCENE + "visibility: {trace_resolution: 256, resolution: 8, "
-                "pca_terms: 4, sphere_subdivisions: 2}\nworkers: 2\n")
+                "pca_terms: 4, sphere_subdivisions: 2, chunk_vertices: 4096}\nworkers: 2\n")
     out = tmp_path / "out"
     proc, err = start(tmp_path, "precompute", cfg, "--out", out)
     wait_for(proc, "two tracing workers", lambda: (out / ".visibility.tmp").is_dir()
