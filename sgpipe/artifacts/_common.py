@@ -16,21 +16,28 @@ from sgpipe.io import read_exr, write_exr, write_npz, write_png
 
 class FolderSink:
     """Writes artifacts into a folder with the interface the writers use (`write_exr`,
-    `write_npz`, `write_png`, `write_json`; a stage's `StageRun` has the same one plus its
-    manifest): for tests and tools that produce artifacts without running a stage."""
+    `write_npz`, `write_png`, `write_json`). A stage's `StageRun` is one (writing into its
+    staging folder, with sgpipe's EXR metadata from `meta`); tests and tools use it directly."""
 
     def __init__(self, root: str | os.PathLike):
         self.root = Path(root)
 
     def path(self, name: str) -> Path:
+        """Path of an output file inside the folder (sub-folders are created)."""
         p = self.root / name
         p.parent.mkdir(parents=True, exist_ok=True)
         return p
 
+    def meta(self, extra: dict | None = None) -> dict:
+        """EXR metadata: the writer's own; a stage adds its version, name and parameter hash."""
+        return dict(extra or {})
+
     def write_exr(self, name: str, image: np.ndarray, *, metadata: dict | None = None,
-                  png: bool = True, channel_names: list[str] | None = None,
-                  exposure: float = 0.0) -> Path:
-        p = write_exr(self.path(name), image, metadata=metadata, channel_names=channel_names)
+                  half: bool = False, png: bool = True, exposure: float = 0.0,
+                  channel_names: list[str] | None = None) -> Path:
+        """EXR plus a PNG preview beside it (image artifacts get one)."""
+        p = write_exr(self.path(name), image, half=half, metadata=self.meta(metadata),
+                      channel_names=channel_names)
         if png and np.asarray(image).ndim in (2, 3):
             write_png(p.with_suffix(".png"), image, exposure=exposure)
         return p
@@ -43,17 +50,25 @@ class FolderSink:
 
     def write_json(self, name: str, data: Any) -> Path:
         p = self.path(name)
-        p.write_text(json.dumps(data, indent=2, sort_keys=True, default=_plain) + "\n")
+        p.write_text(json.dumps(jsonable(data), indent=2, sort_keys=True) + "\n")
         return p
 
 
-def _plain(x):
-    """JSON for numpy values and paths (what reports and microfacet.json hold)."""
-    if isinstance(x, (np.ndarray, np.generic)):
-        return x.tolist()
+def jsonable(x: Any) -> Any:
+    """Plain JSON data from reports holding numpy values and paths."""
+    if isinstance(x, dict):
+        return {str(k): jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return jsonable(x.tolist())
+    if isinstance(x, np.floating):
+        return float(x)
+    if isinstance(x, np.integer):
+        return int(x)
     if isinstance(x, Path):
         return str(x)
-    raise TypeError(f"{type(x).__name__} is not JSON serializable")
+    return x
 
 
 def scalar(a) -> float:

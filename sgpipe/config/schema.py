@@ -10,6 +10,7 @@ config file, the line and the dotted key path.
 from __future__ import annotations
 
 import dataclasses
+import os
 import types
 import typing
 from dataclasses import MISSING, dataclass, field, fields, is_dataclass
@@ -20,7 +21,18 @@ from sgpipe.errors import BadInput
 
 
 class InputPath(str):
-    """A file path in a config: relative to the config file; must exist; stored absolute."""
+    """A file path in a config: relative to the config file; must exist. The string is the
+    absolute path (what code opens); `relative` is the path from the config file's folder,
+    what the resolved config and parameter hashes record, so that artifacts do not depend on
+    where the checkout sits (the manifest hashes the file's content)."""
+
+    relative: str
+
+    @classmethod
+    def resolved(cls, path: Path, base: Path) -> "InputPath":
+        ip = cls(str(path))
+        ip.relative = Path(os.path.relpath(path, base.resolve())).as_posix()
+        return ip
 
 
 class OutputName(str):
@@ -157,13 +169,13 @@ def convert(tp: Any, value: Any, path: tuple, ctx: Context, meta: dict | None = 
         if not isinstance(value, str) or not value:
             raise ctx.error(path, f"expected a file path, got {value!r}")
         p = Path(value).expanduser()
+        base = ctx.file.parent if ctx.file else Path.cwd()
         if not p.is_absolute():
-            base = ctx.file.parent if ctx.file else Path.cwd()
             p = base / p
         p = p.resolve()
         if not p.exists():
             raise ctx.error(path, f"file not found: {p}")
-        return InputPath(str(p))
+        return InputPath.resolved(p, base)
     if tp is OutputName:
         if not isinstance(value, str) or not value or "/" in value or value.startswith("."):
             raise ctx.error(path, f"expected a plain file name, got {value!r}")
@@ -214,6 +226,8 @@ def to_plain(obj: Any) -> Any:
         return [to_plain(v) for v in obj]
     if isinstance(obj, dict):
         return {str(k): to_plain(v) for k, v in obj.items()}
+    if isinstance(obj, InputPath):
+        return getattr(obj, "relative", str(obj))
     if isinstance(obj, str):
         return str(obj)
     return obj

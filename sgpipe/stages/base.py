@@ -41,13 +41,13 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import yaml
 
 import sgpipe
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
-from sgpipe.io import file_hash, write_exr, write_npz, write_png
+from sgpipe.artifacts._common import FolderSink, jsonable
+from sgpipe.io import file_hash
 
 
 def code_files() -> list[Path]:
@@ -181,7 +181,7 @@ def input_key(path: Path, out_dir: Path, config_dir: Path | None) -> str:
     return path.as_posix()
 
 
-class StageRun:
+class StageRun(FolderSink):
     """One stage's run: see the module docstring."""
 
     def __init__(self, cfg, out_dir: str | Path, stage: str, *, params: Any,
@@ -194,6 +194,7 @@ class StageRun:
         self.force = force
         self.final_dir = self.out_dir / stage
         self.staging = self.out_dir / f".{stage}.staging"
+        super().__init__(self.staging)
         self.scratch = self.out_dir / f".{stage}.tmp"
         self.report: dict[str, Any] = {}
         self.timings: dict[str, float] = {}
@@ -214,8 +215,10 @@ class StageRun:
 
     @property
     def param_hash(self) -> str:
-        return params_hash({"version": sgpipe.__version__, "code": code_hash(),
-                            "stage": self.stage, "seed": getattr(self.cfg, "seed", 0),
+        """What the config asks of this stage (stage, seed, parameters; input files by their
+        path from the config's folder). Written into every EXR; the code is not part of it, so
+        a change that moves no number leaves the artifacts' bytes alone."""
+        return params_hash({"stage": self.stage, "seed": getattr(self.cfg, "seed", 0),
                             "params": self.params})
 
     def _up_to_date(self, input_hashes: dict[str, str]) -> bool:
@@ -228,7 +231,9 @@ class StageRun:
             return False
         if not isinstance(man, dict) or not isinstance(man.get("outputs"), dict):
             return False
-        if man.get("param_hash") != self.param_hash or man.get("inputs") != input_hashes:
+        if (man.get("param_hash") != self.param_hash or man.get("code_hash") != code_hash()
+                or man.get("sgpipe_version") != sgpipe.__version__
+                or man.get("inputs") != input_hashes):
             return False
         # Every output the manifest names must be there with its recorded bytes: a deleted or
         # truncated artifact makes the stage run again instead of failing downstream.
@@ -301,7 +306,8 @@ class StageRun:
         if isinstance(resolved, dict):
             resolved.pop("source", None)
         (self.staging / "config.resolved.yaml").write_text(
-            yaml.safe_dump(resolved, sort_keys=True))
+            "# input files are relative to the folder of the config this run read\n"
+            + yaml.safe_dump(resolved, sort_keys=True))
         outputs = {}
         for p in sorted(self.staging.rglob("*")):
             if p.is_file():
@@ -310,10 +316,11 @@ class StageRun:
             "stage": self.stage,
             "sgpipe_version": sgpipe.__version__,
             "param_hash": self.param_hash,
+            "code_hash": code_hash(),
             "params": self.params,
             "inputs": self._input_hash_map,
             "outputs": outputs,
-            "report": _jsonable(self.report),
+            "report": jsonable(self.report),
         }
         (self.staging / "manifest.json").write_text(json.dumps(manifest, indent=2,
                                                                sort_keys=True) + "\n")
@@ -330,50 +337,7 @@ class StageRun:
         log(f"[{self.stage}] wrote {len(outputs)} files in {self.timings['total_s']:.2f} s "
             f"-> {self.final_dir}")
 
-    # -- writers --------------------------------------------------------------------------
-    def path(self, name: str) -> Path:
-        """Path of an output file inside the staging folder (sub-folders allowed)."""
-        p = self.staging / name
-        p.parent.mkdir(parents=True, exist_ok=True)
-        return p
-
+    # -- writers (FolderSink's, into the staging folder) -----------------------------------
     def meta(self, extra: dict | None = None) -> dict:
         return {"version": sgpipe.__version__, "stage": self.stage,
                 "param_hash": self.param_hash, **(extra or {})}
-
-    def write_exr(self, name: str, image: np.ndarray, *, metadata: dict | None = None,
-                  half: bool = False, png: bool = True, exposure: float = 0.0,
-                  channel_names: list[str] | None = None) -> Path:
-        """EXR with sgpipe metadata, plus a PNG preview beside it (image artifacts get one)."""
-        p = write_exr(self.path(name), image, half=half, metadata=self.meta(metadata),
-                      channel_names=channel_names)
-        if png and np.asarray(image).ndim in (2, 3):
-            write_png(p.with_suffix(".png"), image, exposure=exposure)
-        return p
-
-    def write_npz(self, name: str, arrays: dict[str, np.ndarray]) -> Path:
-        return write_npz(self.path(name), arrays)
-
-    def write_png(self, name: str, image: np.ndarray, **kw) -> Path:
-        return write_png(self.path(name), image, **kw)
-
-    def write_json(self, name: str, data: Any) -> Path:
-        p = self.path(name)
-        p.write_text(json.dumps(_jsonable(data), indent=2, sort_keys=True) + "\n")
-        return p
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, (np.floating,)):
-        return float(x)
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, Path):
-        return str(x)
-    return x
