@@ -11,10 +11,9 @@ from sgpipe.render.records import records_header
 
 
 def fh_coefficients() -> tuple[float, ...]:
-    """(a, c3, c2, c1, c0) of the f_h sigmoid (core.fh: own refit when present, else Wang09's)."""
-    from sgpipe.core import fh
-    c = getattr(fh, "REFIT_FH_COEFFS", None) or fh.PUBLISHED_FH_COEFFS
-    return tuple(float(x) for x in c)
+    """(a, c3, c2, c1, c0) of the f_h sigmoid (Wang09 eq 47, core.fh's refit of it)."""
+    from sgpipe.core.fh import REFIT_FH_COEFFS
+    return tuple(float(x) for x in REFIT_FH_COEFFS)
 
 
 FH_TAB_NT, FH_TAB_NL, FH_TAB_LAMMIN, FH_TAB_LAMMAX = 257, 64, 0.01, 300.0

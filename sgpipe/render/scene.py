@@ -36,7 +36,7 @@ def load_trace_objects(cfg, vis_dir: str | Path | None = None) -> list[TraceObje
     from sgpipe.io.mesh import load_object
     if cfg.scene is None:
         return []
-    sub = getattr(cfg.visibility, "sphere_subdivisions", 4) if cfg.visibility else 4
+    sub = cfg.visibility.sphere_subdivisions if cfg.visibility else 4
     out = []
     for k, spec in enumerate(cfg.scene.objects):
         if spec.sphere_radius is not None:

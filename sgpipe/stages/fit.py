@@ -61,7 +61,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     fit = cfg.fit
     brdfs = [_build_brdf(cfg, n, m) for n, m in enumerate(fit.materials)]
     inputs = [str(m.merl_file) for m in fit.materials if m.merl_file is not None]
-    _set_threads(getattr(cfg, "workers", 0))
+    _set_threads(cfg.workers)
     with StageRun(cfg, out_dir, "fit", params=to_plain(fit), inputs=inputs, force=force) as run:
         if run.skipped:
             return run
@@ -75,7 +75,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
 def fit_material(run: StageRun, cfg, index: int, spec, brdf) -> dict:
     """Write one material's folder; returns its summary for the manifest."""
     name = spec.name
-    seed = int(getattr(cfg, "seed", 0)) * 1000 + index
+    seed = int(cfg.seed) * 1000 + index
     report: dict = {"model": spec.model, "params": to_plain(spec.params)}
     artifacts.write_microfacet(run, name, brdf.microfacet_params())
     if hasattr(brdf, "fit"):

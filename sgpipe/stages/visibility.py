@@ -27,7 +27,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
         return None
     if cfg.scene is None or not cfg.scene.objects:
         raise BadInput("the visibility stage needs a `scene:` with at least one object",
-                       file=getattr(cfg, "source", None), key="scene.objects")
+                       file=cfg.source, key="scene.objects")
     out_dir = Path(out_dir)
     inputs = [o.mesh for o in cfg.scene.objects if o.mesh is not None]
     params = {"visibility": to_plain(cfg.visibility), "scene": to_plain(cfg.scene)}

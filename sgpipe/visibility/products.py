@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sgpipe.core import fh as _fhmod
-from sgpipe.core.fh import PUBLISHED_FH_COEFFS, fh_exact, fh_hemisphere, fh_sigmoid
+from sgpipe.core.fh import (PUBLISHED_FH_COEFFS, REFIT_FH_COEFFS, fh_exact, fh_hemisphere,
+                            fh_sigmoid)
 from sgpipe.core.quadrature import polar_frame
 
 #: f_h variants: the exact integral (quadrature), the appendix sigmoid with the foundation's
@@ -22,8 +22,7 @@ def _fh(theta_d, lam, method: str):
     if method == "exact":
         return fh_exact(th, lam)
     if method == "sigmoid":
-        coeffs = getattr(_fhmod, "REFIT_FH_COEFFS", None) or PUBLISHED_FH_COEFFS
-        return fh_sigmoid(th, lam, coeffs)
+        return fh_sigmoid(th, lam, REFIT_FH_COEFFS)
     if method == "sigmoid_published":
         return fh_sigmoid(th, lam, PUBLISHED_FH_COEFFS)
     raise ValueError(f"unknown f_h method {method!r} ({', '.join(FH_METHODS)})")
