@@ -1,4 +1,4 @@
-"""Command-line interface: parsing and error reporting only (GUIDE: cli -> stages)."""
+"""Command-line interface: parsing, error reporting and signals only (imports point cli -> stages)."""
 
 from __future__ import annotations
 
