@@ -1,10 +1,10 @@
-"""Image metrics against a reference: PSNR, SSIM, relative MSE and a false-colour difference.
+"""Image metrics against a reference: linear PSNR, SSIM, relative MSE, false-colour difference.
 
 Conventions (the `compare` command, the render stage and docs/RESULTS.md all use these):
 
 * Inputs are linear float radiance, (H, W), (H, W, 1), (H, W, 3) or (H, W, 4); only the
   first three channels are used (alpha is ignored), one channel is treated as grey.
-* **PSNR** = 10 log10(peak² / MSE), MSE over every pixel and RGB channel of the *linear*
+* **linear PSNR** = 10 log10(peak² / MSE), MSE over every pixel and RGB channel of the *linear*
   radiance (no tone mapping, no clamping). The peak is fixed at ``PSNR_PEAK = 1.0`` — the
   value that the PNG previews show as white (sgpipe.io.png) — so numbers are comparable
   between scenes and methods; ``peak="max"`` uses the reference maximum instead. Identical
@@ -14,10 +14,9 @@ Conventions (the `compare` command, the render stage and docs/RESULTS.md all use
   K2 = 0.03, dynamic range L = the PSNR peak, reflected borders, mean over all pixels.
 * **relative MSE** = mean over pixels and channels of (x − r)² / (r² + ε), ε = 0.01
   (the usual rendering "relMSE"; ε keeps black pixels from dominating).
-* **display PSNR** (`psnr_display`, secondary, for comparison with papers that measure 8-bit
-  images): PSNR with peak 1 of the preview transform — scale by 2^exposure, clamp to [0, 1],
-  sRGB curve (sgpipe.io.png, before 8-bit quantisation). Highlights above 1 are clipped, so it
-  is blind to errors there; the linear PSNR is the one that `compare` reports.
+* **Display PSNR and ꟻLIP** (what a viewer sees, the numbers to use for goals): see
+  sgpipe.metrics.display. The linear PSNR above is kept as ``psnr_db`` and always labelled
+  "linear PSNR": on HDR frames it is decided by the few brightest pixels.
 * **False-colour difference**: signed luminance difference x − r divided by a scale (the 99th
   percentile of |x − r| unless given); black = equal, red → yellow where the image is brighter
   than the reference, blue → cyan where it is darker. Returned as 8-bit sRGB-ready RGB.
@@ -28,6 +27,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from sgpipe.metrics import display
 
 PSNR_PEAK = 1.0
 REL_MSE_EPS = 0.01
@@ -97,17 +98,6 @@ def psnr(image, reference, *, peak: float | str = PSNR_PEAK, mask=None) -> float
     return 10.0 * math.log10(p * p / e)
 
 
-def _display(image, exposure):
-    x = np.clip(as_rgb(image) * (2.0 ** exposure), 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
-
-
-def psnr_display(image, reference, *, exposure: float = 0.0, mask=None) -> float:
-    """PSNR (peak 1) of the clamped sRGB previews (module docstring); ``inf`` if identical."""
-    _pair(image, reference, mask)
-    return psnr(_display(image, exposure), _display(reference, exposure), peak=1.0, mask=mask)
-
-
 def relative_mse(image, reference, *, eps: float = REL_MSE_EPS, mask=None) -> float:
     """mean((x − r)² / (r² + eps)) over pixels and RGB channels."""
     a, r = _pair(image, reference, mask)
@@ -144,17 +134,35 @@ def ssim(image, reference, *, peak: float | str = PSNR_PEAK, mask=None) -> float
     return float(np.mean(m)) if m.size else 1.0
 
 
-def compare_images(image, reference, *, peak: float | str = PSNR_PEAK, mask=None) -> dict:
-    """All metrics as a dict: psnr_db, ssim, rel_mse, mse, peak, max_abs_error."""
-    a, r = _pair(image, reference, mask)
+def _metrics(image, reference, mask, peak, exposure, flips) -> dict:
+    ldr, hdr = flips
     return {
+        "display_psnr_db": display.display_psnr(image, reference, exposure=exposure, mask=mask),
+        "flip_ldr": display.mean_over(ldr, mask),
+        "flip_hdr": display.mean_over(hdr, mask),
+        "rel_mse": relative_mse(image, reference, mask=mask),
         "psnr_db": psnr(image, reference, peak=peak, mask=mask),
         "ssim": ssim(image, reference, peak=peak, mask=mask),
-        "rel_mse": relative_mse(image, reference, mask=mask),
         "mse": mse(image, reference, mask=mask),
-        "peak": _peak(reference, peak),
-        "max_abs_error": float(np.max(np.abs(a - r))) if a.size else 0.0,
     }
+
+
+def compare_images(image, reference, *, peak: float | str = PSNR_PEAK, mask=None,
+                   exposure: float = 0.0, surface=None) -> dict:
+    """Every metric as a dict: display_psnr_db, flip_ldr, flip_hdr, rel_mse, psnr_db (linear),
+    ssim, mse, peak, exposure, max_abs_error; with a `surface` mask (surface.surface_mask) also
+    "surface": the same metrics over those pixels and their count."""
+    a, r = _pair(image, reference, mask)
+    flips = (display.flip_ldr_map(image, reference, exposure=exposure),
+             display.flip_hdr_map(image, reference))
+    out = _metrics(image, reference, mask, peak, exposure, flips)
+    out.update(peak=_peak(reference, peak), exposure=float(exposure),
+               max_abs_error=float(np.max(np.abs(a - r))) if a.size else 0.0)
+    if surface is not None:
+        m = np.asarray(surface, bool) & (True if mask is None else np.asarray(mask, bool))
+        out["surface"] = _metrics(image, reference, m, peak, exposure, flips)
+        out["surface"]["pixels"] = int(m.sum())
+    return out
 
 
 # piecewise-linear ramps for the false-colour map: t in [0, 1] -> RGB
@@ -188,6 +196,5 @@ def false_color_difference(image, reference, *, scale: float | None = None) -> n
     return np.round(np.clip(rgb, 0, 1) * 255).astype(np.uint8)
 
 
-__all__ = ["PSNR_PEAK", "REL_MSE_EPS", "as_rgb", "luminance", "mse", "psnr", "psnr_display",
-           "relative_mse",
+__all__ = ["PSNR_PEAK", "REL_MSE_EPS", "as_rgb", "luminance", "mse", "psnr", "relative_mse",
            "ssim", "ssim_map", "compare_images", "false_color_difference", "difference_scale"]
