@@ -12,12 +12,12 @@ OUT    ?= out
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test]'
+	$(PY) -m pip install -q -e '.[test,dask]'
 	touch $(STAMP)
 
 # the benchmarks' baselines (scikit-learn, ...): the `bench` extra, on top of the base install
 $(BENCH_STAMP): $(STAMP)
-	$(PY) -m pip install -q -e '.[test,bench]'
+	$(PY) -m pip install -q -e '.[test,dask,bench]'
 	touch $(BENCH_STAMP)
 
 setup: $(STAMP) opencl

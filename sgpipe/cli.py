@@ -76,7 +76,18 @@ def _restore_signal_handlers(old: dict) -> None:
             signal.signal(s, h)
 
 
+def _keep_scheduler(ctx, param, value):
+    """--scheduler / $SGPIPE_SCHEDULER, with where it came from (for the error line)."""
+    env = ctx.get_parameter_source(param.name) == click.core.ParameterSource.ENVIRONMENT
+    ctx.meta["sgpipe.scheduler"] = (value, "SGPIPE_SCHEDULER" if env else "--scheduler")
+
+
 def _config_options(f):
+    f = click.option("--scheduler", metavar="tcp://HOST:PORT", envvar="SGPIPE_SCHEDULER",
+                     expose_value=False, callback=_keep_scheduler,
+                     help="Run the chunked work on this Dask scheduler instead of local "
+                     "processes (needs the [dask] extra; default: $SGPIPE_SCHEDULER, then the "
+                     "config's `scheduler:`). Same artifacts either way.")(f)
     f = click.option("--force", is_flag=True, help="Rerun even if inputs and parameters are "
                      "unchanged.")(f)
     f = click.option("--set", "overrides", multiple=True, metavar="KEY.PATH=VALUE",
@@ -98,8 +109,12 @@ def _load(config: Path, overrides, out_dir: Path | None):
 def _run_stages(names: list[str], config, out_dir, overrides, force):
     import importlib
     from sgpipe.stages.base import folder_lock
+    from sgpipe.parallel import cluster
     cfg, out = _load(config, overrides, out_dir)
-    with folder_lock(out):      # a second run on this folder waits, then reuses these stages
+    address, key = click.get_current_context().meta.get("sgpipe.scheduler", (None, None))
+    where = {"key": key} if address else {"file": cfg.source, "key": "scheduler"}
+    # connected before the folder lock: an unreachable scheduler writes nothing
+    with cluster(address or cfg.scheduler, **where), folder_lock(out):
         for name in names:
             importlib.import_module(f"sgpipe.stages.{name}").run(cfg, out, force=force)
     click.echo(f"outputs: {out.resolve()}")

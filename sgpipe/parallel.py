@@ -2,7 +2,9 @@
 Parallel work).
 
 Local processes by default, sized to the cores; results come back in input order so merged
-artifacts are deterministic. Swapping in another backend (e.g. Dask) only touches this file.
+artifacts are deterministic. Inside `cluster(address)` (the CLI's `--scheduler`), chunks run as
+futures on a Dask cluster instead: the same chunks, gathered in the same order, so the artifacts
+are the same bytes. This is the only module that imports Dask (`distributed`, lazily).
 
 Interruption: the parent owns the decision. Workers ignore SIGINT (a terminal's Ctrl-C reaches
 the whole process group), and when anything interrupts the parent (a signal turned into an
@@ -22,7 +24,17 @@ from typing import Any, Callable, Iterable, Sequence
 
 import click
 
+from sgpipe.errors import BadInput
+
 _KILL_GRACE_S = 0.5   # SIGTERM → SIGKILL for a worker stuck in native code
+_CONNECT_TIMEOUT_S = 5.0
+_CLOSE_TIMEOUT_S = 5.0
+# A chunk that raised is run again this often (a worker that dies mid-chunk is handled by the
+# scheduler itself: its chunks go to other workers, up to distributed.scheduler.allowed-failures).
+_CHUNK_RETRIES = 2
+DASK_EXTRA_HINT = "install the [dask] extra: pip install -e '.[dask]'"
+
+_clients: list = []   # the distributed.Client of each open `cluster()` block, innermost last
 
 
 def default_workers() -> int:
@@ -88,20 +100,29 @@ def _stop_pool(ex: ProcessPoolExecutor) -> None:
 
 
 def map_chunks(fn: Callable[[Any], Any], items: Sequence[Any] | Iterable[Any], *,
-               workers: int | None = None, desc: str = "working") -> list[Any]:
+               workers: int | None = None, desc: str = "working",
+               scheduler: str | None = None) -> list[Any]:
     """Apply `fn` (a module-level function) to every item; return results in input order.
 
+    On a Dask cluster when `scheduler` (an address) is given or a `cluster()` block is open;
+    `workers` then does not apply (the cluster's workers run the chunks). Otherwise local:
     workers=None or 0 uses every core; workers=1 runs in this process (no pickling), which is
     also what happens for a single item. Any exception (KeyboardInterrupt and signals turned
-    into exceptions included) stops the pool's workers before it propagates.
+    into exceptions included) stops the pool's workers / cancels the futures before it
+    propagates.
     """
     items = list(items)
+    if scheduler:
+        with cluster(scheduler):
+            return map_chunks(fn, items, desc=desc)
     n = default_workers() if not workers else int(workers)
     n = max(1, min(n, len(items)))
     bar = _progress(len(items), desc)
     results: list[Any] = []
     try:
-        if n == 1:
+        if _clients and items:
+            results = _map_on_cluster(_clients[-1], fn, items, bar)
+        elif n == 1:
             for it in items:
                 results.append(fn(it))
                 if bar:
@@ -129,3 +150,87 @@ def chunk_ranges(n: int, chunk: int) -> list[tuple[int, int]]:
     """Split range(n) into [start, stop) pieces of at most `chunk` items."""
     chunk = max(1, int(chunk))
     return [(s, min(n, s + chunk)) for s in range(0, n, chunk)]
+
+
+# -- Dask ---------------------------------------------------------------------------------------
+
+def on_cluster() -> bool:
+    """True inside a `cluster()` block: chunks may run on other machines, so they must carry
+    their data (or name files on a filesystem every worker sees), not point into local /tmp."""
+    return bool(_clients)
+
+
+@contextlib.contextmanager
+def cluster(address: str | None, *, file: str | None = None, key: str = "--scheduler"):
+    """Run every `map_chunks` inside the block on the Dask scheduler at `address` (None or "":
+    the local pool). Connects once, up front: a missing `distributed` package or an unreachable
+    address is a BadInput naming `file`/`key` (where the address came from). The client is
+    closed when the block ends, however it ends."""
+    if not address:
+        yield None
+        return
+    client = _connect(str(address), file, key)
+    _clients.append(client)
+    try:
+        yield client
+    finally:
+        _clients.remove(client)
+        with contextlib.suppress(Exception):
+            client.close(timeout=_CLOSE_TIMEOUT_S)
+
+
+def _connect(address: str, file: str | None, key: str):
+    try:
+        import distributed
+    except ImportError:
+        raise BadInput(f"a Dask scheduler ({address}) needs the `distributed` package: "
+                       f"{DASK_EXTRA_HINT}", file=file, key=key) from None
+    try:
+        # a malformed address fails here, before a Client exists (its __del__ would hang 10 s)
+        distributed.comm.get_address_host_port(address)
+    except Exception as e:
+        raise BadInput(f"{address!r} is not a Dask scheduler address (tcp://HOST:PORT): "
+                       f"{' '.join(str(e).split())[:160]}", file=file, key=key) from None
+    try:
+        return distributed.Client(address, timeout=_CONNECT_TIMEOUT_S, set_as_default=False)
+    except Exception as e:      # OSError / TimeoutError
+        why = " ".join(str(e).split()) or type(e).__name__
+        raise BadInput(f"cannot reach the Dask scheduler at {address!r} within "
+                       f"{_CONNECT_TIMEOUT_S:g} s ({why[:160]})", file=file, key=key) from None
+
+
+class _Chunk:
+    """An item shipped to a Dask worker as one opaque object: Dask looks inside tuples, lists,
+    dicts and dataclasses for tasks and futures, which a chunk's own data must not be taken for."""
+
+    __slots__ = ("item",)
+
+    def __init__(self, item):
+        self.item = item
+
+
+def _run_chunk(fn: Callable[[Any], Any], chunk: _Chunk) -> Any:
+    return fn(chunk.item)
+
+
+def _map_on_cluster(client, fn: Callable[[Any], Any], items: list, bar) -> list[Any]:
+    """Submit every item as a future (explicit keys: one run's chunks never merge with another
+    run's, even for equal inputs), gather in input order, cancel what is left on any exception."""
+    import uuid
+    token = uuid.uuid4().hex[:12]
+    name = getattr(fn, "__name__", "chunk")
+    keys = [f"sgpipe-{name}-{token}-{i}" for i in range(len(items))]
+    futures = client.map(_run_chunk, [fn] * len(items), [_Chunk(it) for it in items], key=keys,
+                         retries=_CHUNK_RETRIES)
+    results = []
+    try:
+        for f in futures:
+            results.append(f.result())
+            f.release()
+            if bar:
+                bar.update(1)
+    except BaseException:
+        with contextlib.suppress(Exception):
+            client.cancel(futures)
+        raise
+    return results

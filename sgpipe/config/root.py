@@ -21,6 +21,10 @@ class Config:
                     "sgpipe")
     seed: int = doc("Seed for every random choice; same seed + config = same bytes.", 0, ge=0)
     workers: int = doc("Worker processes for chunked stages (0 = one per core).", 0, ge=0)
+    scheduler: str | None = doc(
+        "Dask scheduler address (tcp://HOST:8786) to run chunked work on instead of local "
+        "processes; overridden by $SGPIPE_SCHEDULER and --scheduler. Needs the [dask] extra. "
+        "An execution setting: the artifacts are the same bytes either way.", None)
     scene: SceneSection | None = doc("Geometry shared by visibility and render.", None)
     fit: FitSection | None = doc("Materials to fit into lobe representations.", None)
     envmap: EnvmapSection | None = doc("Environment-map prefiltering and light fits.", None)
