@@ -160,16 +160,51 @@ def run_all(config, out_dir, overrides, force):
     _run_stages(["fit", "precompute", "render"], config, out_dir, overrides, force)
 
 
+def _threshold_options(fn):
+    from sgpipe.metrics.gates import THRESHOLDS
+    for t in reversed(THRESHOLDS):
+        what = "surface pixels' " if t.scope == "surface" else ""
+        fn = click.option(t.option, t.name, type=float, default=None,
+                          help=f"Fail (exit 1) when a method's {what}{t.label} is "
+                               f"{'below' if t.bound == 'min' else 'above'} this.")(fn)
+    return fn
+
+
 @cli.command()
 @click.argument("image", type=click.Path(path_type=Path))
-@click.argument("reference", type=click.Path(path_type=Path))
+@click.argument("reference", type=click.Path(path_type=Path), required=False)
 @click.option("--json", "as_json", is_flag=True, help="Print the metrics as JSON.")
 @click.option("--diff", "diff_png", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Write a false-colour difference PNG here.")
-def compare(image, reference, as_json, diff_png):
-    """Compare IMAGE against REFERENCE (linear EXR): PSNR, SSIM, relative MSE."""
+@click.option("--exposure", type=float, default=None,
+              help="Display exposure (default: the render folder's preview_exposure, else 0).")
+@click.option("--gbuffer", type=click.Path(path_type=Path), default=None,
+              help="gbuffer.npz (or its folder) for the surface-pixel metrics (default: the "
+                   "one beside IMAGE).")
+@click.option("--truth", default=None,
+              help="Folders: the method to compare against (default: render.compare_to).")
+@click.option("--method", "methods", multiple=True, help="Folders: only these methods.")
+@_threshold_options
+@click.option("--max-psnr-drop", type=float, default=0.1, show_default=True,
+              help="Two folders: fail when a method's display PSNR is this many dB below "
+                   "the baseline's.")
+@click.option("--max-flip-rise", type=float, default=0.002, show_default=True,
+              help="Two folders: fail when a method's LDR-FLIP is this much above the "
+                   "baseline's.")
+@click.option("--junit", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write JUnit XML here (one testcase per method and check).")
+def compare(image, reference, as_json, diff_png, exposure, gbuffer, truth, methods,
+            max_psnr_drop, max_flip_rise, junit, **limits):
+    """Compare IMAGE against REFERENCE (linear EXRs), every method of a render folder against
+    its reference, or two render folders (candidate, baseline) method by method: display
+    PSNR, FLIP, relMSE, linear PSNR, SSIM. Exit 1 when a threshold fails."""
     from sgpipe.stages import compare as cmp
-    cmp.compare_cli(image, reference, as_json=as_json, diff_png=diff_png)
+    failed = cmp.compare_cli(image, reference, as_json=as_json, diff_png=diff_png,
+                             exposure=exposure, gbuffer=gbuffer, truth=truth,
+                             methods=list(methods) or None, limits=limits,
+                             psnr_drop_db=max_psnr_drop, flip_rise=max_flip_rise, junit=junit)
+    if failed:
+        sys.exit(1)
 
 
 @cli.command("config-doc")

@@ -97,3 +97,110 @@ def test_render_stage_hook_writes_diff_and_report(tmp_path):
     assert rep["fis"]["psnr_db"] is None and rep["fis"]["identical"] is True and same["ssim"] == 1
     assert (tmp_path / "render" / "sg.diff.png").is_file()
     assert "sg.diff.png" in man["outputs"]
+
+
+# --- display metrics, thresholds, render folders, JUnit ------------------------------------
+
+def test_display_metrics_in_json_and_table(pair):
+    a, b = pair
+    res = sgpipe("compare", a, b, "--json")
+    d = json.loads(res.stdout)
+    from sgpipe.io.png import tonemap_srgb
+    ca, cb = (tonemap_srgb(read_exr(p)).astype(float) for p in (a, b))
+    want = 10 * math.log10(255 ** 2 / np.mean((ca - cb) ** 2))
+    assert d["display_psnr_db"] == pytest.approx(want, abs=1e-9)
+    assert 0 < d["flip_ldr"] < 1 and 0 < d["flip_hdr"] < 1 and "surface" not in d
+    res = sgpipe("compare", a, b)
+    lines = res.stdout.splitlines()
+    assert [ln.split()[0] for ln in lines[3:6]] == ["display", "LDR-FLIP", "HDR-FLIP"]
+    assert any(ln.startswith("linear PSNR") for ln in lines)
+
+
+def test_thresholds_exit_1_with_one_line_per_failure(pair, tmp_path):
+    a, b = pair
+    d = json.loads(sgpipe("compare", a, b, "--json").stdout)
+    ok = sgpipe("compare", a, b, "--min-psnr", d["display_psnr_db"] - 0.01,
+                "--max-flip", d["flip_ldr"] + 1e-4, "--max-relmse", 1)
+    assert ok.returncode == 0, ok.stderr
+    junit = tmp_path / "j.xml"
+    bad = sgpipe("compare", a, b, "--min-psnr", d["display_psnr_db"] + 0.01,
+                 "--max-flip", d["flip_ldr"] - 1e-4, "--max-relmse", 1, "--junit", junit)
+    assert bad.returncode == 1
+    fails = [ln for ln in bad.stderr.splitlines() if "FAIL" in ln]
+    assert len(fails) == 2 and "--min-psnr" in fails[0] and "--max-flip" in fails[1]
+    assert "PSNR" in bad.stdout                         # the table is still printed
+    import xml.etree.ElementTree as ET
+    root = ET.parse(junit).getroot()
+    cases = root.findall("./testsuite/testcase")
+    failed = [c.get("name") for c in cases if c.find("failure") is not None]
+    assert len(cases) == 4 and len(failed) == 2 and root.get("failures") == "2"
+    assert failed[0].startswith("display PSNR >=") and failed[1].startswith("LDR-FLIP <=")
+    res = sgpipe("compare", a, b, "--min-surface-psnr", 10)   # no G-buffer: surfaces fail
+    assert res.returncode == 1 and "no G-buffer" in res.stderr
+
+
+def _render_folder(path, sg_noise, seed=0):
+    """A render folder as the render stage writes it (manifest params, EXRs, gbuffer)."""
+    from sgpipe.io import write_npz
+    path.mkdir(parents=True)
+    rng = np.random.default_rng(seed)
+    ref = rng.uniform(0.05, 0.9, (24, 32, 3)).astype(np.float32)
+    write_exr(path / "reference.exr", ref)
+    noise = np.random.default_rng(1).normal(0, 1, ref.shape)
+    write_exr(path / "sg.exr", np.clip(ref + sg_noise * noise, 0, None).astype(np.float32))
+    write_exr(path / "fis.exr", ref)
+    ids = np.full((24, 32), -1, np.int32)
+    ids[4:20, 4:28] = 0
+    write_npz(path / "gbuffer.npz", {"object_id": ids})
+    (path / "manifest.json").write_text(json.dumps({"params": {"render": {
+        "methods": ["sg", "fis", "reference"], "compare_to": "reference",
+        "preview_exposure": 0.0}}}))
+    return path
+
+
+def test_render_folders_method_by_method(tmp_path):
+    base = _render_folder(tmp_path / "base" / "render", 0.02)
+    same = _render_folder(tmp_path / "same" / "render", 0.02, seed=4)
+    worse = _render_folder(tmp_path / "worse" / "render", 0.05)
+    res = sgpipe("compare", base, "--json")
+    assert res.returncode == 0, res.stderr
+    d = json.loads(res.stdout)
+    assert set(d["methods"]) == {"sg", "fis"} and d["truth"] == "reference"
+    sg = d["methods"]["sg"]
+    assert sg["surface"]["pixels"] == 14 * 22 and d["methods"]["fis"]["identical"] is True
+    assert sgpipe("compare", same, base).returncode == 0
+    junit = tmp_path / "reg.xml"
+    res = sgpipe("compare", worse, base, "--junit", junit)
+    assert res.returncode == 1
+    fails = [ln for ln in res.stderr.splitlines() if "FAIL" in ln]
+    assert len(fails) == 2 and all("FAIL sg:" in ln for ln in fails), res.stderr
+    assert "candidate" in res.stdout and "baseline" in res.stdout
+    import xml.etree.ElementTree as ET
+    cases = ET.parse(junit).getroot().findall("./testsuite/testcase")
+    failed = {(c.get("classname"), c.get("name").split()[0]) for c in cases
+              if c.find("failure") is not None}
+    assert failed == {("sgpipe.compare.sg", "display"), ("sgpipe.compare.sg", "LDR-FLIP")}
+    # a looser tolerance lets the same pair pass
+    assert sgpipe("compare", worse, base, "--max-psnr-drop", 50,
+                  "--max-flip-rise", 1).returncode == 0
+    res = sgpipe("compare", base, "--truth", "nope")
+    assert res.returncode == 2 and "nope.exr" in res.stderr
+
+
+def test_render_stage_reports_display_metrics_and_surfaces(tmp_path):
+    """The real render stage (tiny scene): report.compare gains display PSNR, FLIP, surfaces;
+    the log line leads with display PSNR; `compare` on the folder gives the same numbers."""
+    from tiny_scene import tiny_config  # tests/ is on sys.path
+    cfg = tmp_path / "tiny.yaml"
+    cfg.write_text(tiny_config())
+    out = tmp_path / "out"
+    res = sgpipe("run", cfg, "--out", out)
+    assert res.returncode == 0, res.stderr
+    line = [ln for ln in res.stderr.splitlines() if "sg vs reference" in ln]
+    assert line and line[0].split("sg vs reference: ")[1].startswith("display PSNR")
+    rep = json.loads((out / "render" / "manifest.json").read_text())["report"]["compare"]["sg"]
+    assert 0 < rep["flip_ldr"] < 1 and rep["surface"]["pixels"] > 0
+    d = json.loads(sgpipe("compare", out / "render", "--json").stdout)["methods"]["sg"]
+    for k in ("display_psnr_db", "flip_ldr", "flip_hdr", "rel_mse", "psnr_db"):
+        assert d[k] == pytest.approx(rep[k], rel=1e-6), k
+        assert d["surface"][k] == pytest.approx(rep["surface"][k], rel=1e-6), k

@@ -160,13 +160,20 @@ def _reference(cfg, bundle, run) -> np.ndarray:
 
 
 def _compare(run, images: dict, truth: str) -> None:
-    """Metrics of every other method against `truth` via the compare stage's hook."""
+    """Metrics of every other method against `truth` via the compare stage's hook: display
+    metrics at the preview exposure, surface variants from the G-buffer's object ids."""
+    from sgpipe.metrics import surface_mask
     from sgpipe.stages.compare import compare_to_reference
     ref_path = run.path(art.image_name(truth))
+    surface = surface_mask(art.read_gbuffer(run.staging).object_id)
     for method, img in images.items():
         if method == truth:
             continue
-        d = compare_to_reference(run, img, ref_path, method)
-        psnr = d.get("psnr_db")
-        shown = "inf (identical)" if psnr is None else f"{psnr:.2f}"
-        log(f"[render] {method} vs {truth}: PSNR {shown} dB, SSIM {d.get('ssim', 0):.4f}")
+        d = compare_to_reference(run, img, ref_path, method,
+                                 exposure=run.cfg.render.preview_exposure, surface=surface)
+        db = lambda v: "inf (identical)" if v is None else f"{v:.2f}"  # noqa: E731
+        s = d["surface"]
+        log(f"[render] {method} vs {truth}: display PSNR {db(d['display_psnr_db'])} dB "
+            f"(surfaces {db(s['display_psnr_db'])} dB), LDR-FLIP {d['flip_ldr']:.4f} "
+            f"(surfaces {s['flip_ldr']:.4f}), linear PSNR {db(d['psnr_db'])} dB, "
+            f"SSIM {d['ssim']:.4f}")
