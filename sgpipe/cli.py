@@ -163,9 +163,8 @@ def run_all(config, out_dir, overrides, force):
 def _threshold_options(fn):
     from sgpipe.metrics.gates import THRESHOLDS
     for t in reversed(THRESHOLDS):
-        what = "surface pixels' " if t.scope == "surface" else ""
         fn = click.option(t.option, t.name, type=float, default=None,
-                          help=f"Fail (exit 1) when a method's {what}{t.label} is "
+                          help=f"Fail (exit 1) when a method's {t.label} is "
                                f"{'below' if t.bound == 'min' else 'above'} this.")(fn)
     return fn
 
