@@ -219,7 +219,7 @@ def _map_on_cluster(client, fn: Callable[[Any], Any], items: list, bar) -> list[
     import uuid
     token = uuid.uuid4().hex[:12]
     name = getattr(fn, "__name__", "chunk")
-    keys = [f"sgpipe-{name}-{token}-{i}" for i in range(len(items))]
+    keys = [f"{name}-{token}-{i}" for i in range(len(items))]   # dashboard groups by name
     futures = client.map(_run_chunk, [fn] * len(items), [_Chunk(it) for it in items], key=keys,
                          retries=_CHUNK_RETRIES)
     results = []

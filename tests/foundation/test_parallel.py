@@ -78,3 +78,28 @@ def test_interrupt_stops_the_pool_at_once():
         timer.cancel()
     assert time.monotonic() - t0 < 6
     assert _running_workers() == []
+
+
+def test_scheduler_without_the_dask_extra_is_bad_input_naming_the_extra():
+    """Where `distributed` is not installed (blocked here by a None in sys.modules, which
+    makes its import fail the same way), a scheduler address is one BadInput line."""
+    import subprocess
+    import sys
+    code = ("import sys; sys.modules['distributed'] = None\n"
+            "from sgpipe.errors import BadInput\n"
+            "from sgpipe.parallel import map_chunks\n"
+            "try:\n"
+            "    map_chunks(abs, [1, -2], scheduler='tcp://127.0.0.1:8786')\n"
+            "except BadInput as e:\n"
+            "    print(e.one_line())\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip().startswith("--scheduler: ")
+    assert "pip install -e '.[dask]'" in r.stdout
+
+
+def test_no_scheduler_means_the_local_pool():
+    from sgpipe.parallel import cluster, on_cluster
+    with cluster(None) as c:
+        assert c is None and not on_cluster()
+        assert map_chunks(_square_sum, chunk_ranges(10, 3), workers=1) == [5, 50, 149, 81]
