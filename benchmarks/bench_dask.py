@@ -1,0 +1,153 @@
+"""Dask backend targets (issue 18), measured in one run on this machine:
+
+1. Overhead: the visibility stage's chunked tracing (`trace_wall_s`) through a local Dask
+   cluster of two single-threaded workers vs the local process pool with two processes, same
+   config: Dask / pool ≤ 1.10.
+2. Scaling: the same through Dask with one worker, then two: speed-up ≥ 1.7×.
+
+Scene: the issue's teapot on the tessellated floor (data_samples, ~20.6k vertices), at
+trace_resolution 160² → 32² SSDF instead of 512² → 128² (≈ 245 s a run here, and the target
+needs three runs); the per-vertex work keeps its shape, only the rays per vertex shrink, so each
+run still traces for well over 20 s. The output says which resolution it used.
+
+Chunk sizes for a large cluster: a cluster stays busy when there are several chunks per worker
+(≥ 4× the workers, so the last wave is short and a lost worker costs little) and each chunk is
+long against Dask's per-task cost (~1 ms of scheduler time and a round trip). `chunk_vertices`
+sets both: 20.6k vertices / 48 per chunk = 430 chunks, ≥ 4 per worker up to 100 workers, and a
+48-vertex chunk at 512² traces for ~1 s (≈ 0.1 s at this benchmark's 160²) — ≥ 100× the
+per-task cost. For N workers pick chunk_vertices ≤ vertices / (4 N); going much below ~16
+vertices (512²) makes scheduling visible. The chunks are the same in every run (Dask or not),
+so the artifacts are the same bytes.
+
+    .venv/bin/python -m benchmarks dask
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+OVERHEAD_MAX = 1.10
+SPEEDUP_MIN = 1.7
+TRACE_RES, SSDF_RES = 160, 32
+
+CONFIG = f"""
+name: bench_dask
+seed: 0
+workers: 2
+scene:
+  objects:
+    - {{name: teapot, mesh: {ROOT / 'data_samples/teapot.obj'}}}
+    - {{name: floor, mesh: {ROOT / 'data_samples/floor.obj'}}}
+visibility:
+  trace_resolution: {TRACE_RES}
+  resolution: {SSDF_RES}
+  pca_terms: 16
+  chunk_vertices: 48
+"""
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _stage(cfg: Path, out: Path, *extra: str) -> dict:
+    env = {k: v for k, v in os.environ.items() if k != "SGPIPE_SCHEDULER"}
+    r = subprocess.run([sys.executable, "-m", "sgpipe", "precompute", str(cfg), "--out",
+                        str(out), "--force", *extra], capture_output=True, text=True, env=env)
+    if r.returncode:
+        raise RuntimeError(r.stderr)
+    return json.loads((out / "visibility/timings.json").read_text())
+
+
+def _files(root: Path) -> dict[str, bytes]:
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*"))
+            if p.is_file() and p.name != "timings.json"}
+
+
+class LocalDask:
+    """`dask scheduler` + single-threaded `dask worker`s on 127.0.0.1, as a user would start them."""
+
+    def __init__(self, logs: Path):
+        self.addr = f"tcp://127.0.0.1:{_free_port()}"
+        self.logs, self.procs = logs, []
+        self._start("scheduler", "--host", "127.0.0.1", "--port", self.addr.rsplit(":", 1)[1],
+                    "--no-dashboard")
+
+    def _start(self, *args: str) -> None:
+        dask = Path(sys.executable).parent / "dask"
+        log = open(self.logs / f"{args[0]}{len(self.procs)}.log", "wb")
+        self.procs.append(subprocess.Popen([str(dask), *args], stdout=subprocess.DEVNULL,
+                                           stderr=log))
+
+    def add_worker(self, n_total: int) -> None:
+        import distributed
+        self._start("worker", self.addr, "--nthreads", "1", "--no-nanny", "--no-dashboard",
+                    "--host", "127.0.0.1")
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                with distributed.Client(self.addr, timeout=5) as c:
+                    c.wait_for_workers(n_total, timeout=60)
+                return
+            except OSError:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.5)
+
+    def close(self) -> None:
+        for p in reversed(self.procs):
+            p.terminate()
+            p.wait(10)
+
+
+def main() -> int:
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        print("bench_dask needs the [dask] extra: pip install -e '.[dask]'")
+        return 1
+    print(f"visibility: teapot + floor, trace_resolution {TRACE_RES}² -> {SSDF_RES}² "
+          f"(the issue's 512² takes ~245 s a run here), chunk_vertices 48")
+    with tempfile.TemporaryDirectory(prefix="sgpipe-bench-dask-") as tmp:
+        tmp = Path(tmp)
+        cfg = tmp / "bench.yaml"
+        cfg.write_text(CONFIG)
+        pool = _stage(cfg, tmp / "pool")
+        print(f"local pool, 2 processes : trace {pool['trace_wall_s']:6.1f} s "
+              f"(stage {pool['total_s']:.1f} s)", flush=True)
+        cluster = LocalDask(tmp)
+        try:
+            cluster.add_worker(1)
+            one = _stage(cfg, tmp / "dask1", "--scheduler", cluster.addr)
+            print(f"Dask, 1 worker          : trace {one['trace_wall_s']:6.1f} s "
+                  f"(stage {one['total_s']:.1f} s)", flush=True)
+            cluster.add_worker(2)
+            two = _stage(cfg, tmp / "dask2", "--scheduler", cluster.addr)
+            print(f"Dask, 2 workers         : trace {two['trace_wall_s']:6.1f} s "
+                  f"(stage {two['total_s']:.1f} s)", flush=True)
+        finally:
+            cluster.close()
+        same = _files(tmp / "pool") == _files(tmp / "dask2") == _files(tmp / "dask1")
+    overhead = two["trace_wall_s"] / pool["trace_wall_s"]
+    speedup = one["trace_wall_s"] / two["trace_wall_s"]
+    ok_o, ok_s = overhead <= OVERHEAD_MAX, speedup >= SPEEDUP_MIN
+    print(f"Dask 2 workers / pool 2 processes: {overhead:.3f} (target ≤ {OVERHEAD_MAX}) "
+          f"{'ok' if ok_o else 'MISSED'}")
+    print(f"Dask 1 -> 2 workers speed-up     : {speedup:.2f}× (target ≥ {SPEEDUP_MIN}) "
+          f"{'ok' if ok_s else 'MISSED'}")
+    print(f"artifacts byte-identical (pool, Dask 1, Dask 2): {same}")
+    return 0 if ok_o and ok_s and same else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
