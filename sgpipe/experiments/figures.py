@@ -96,6 +96,10 @@ def _render_method(cfg, out: Path, method: str) -> dict:
     img = read_image(rdir, method)
     sec = timings.get(f"{method}_s")
     res = {"image": img, "ms": None if sec is None else 1e3 * float(sec)}
+    if method != "reference":          # surface pixels: the sphere away from its silhouette
+        from sgpipe.artifacts.render import read_gbuffer
+        from sgpipe.metrics import surface_mask
+        res["surface_mask"] = surface_mask(read_gbuffer(rdir).object_id)
     man = json.loads((rdir / "manifest.json").read_text())
     if method == "reference":
         res["stderr"] = man.get("report", {}).get("reference_mean_stderr")
@@ -132,7 +136,7 @@ def _direct_reference(cfg) -> dict:
 def run_env(env: str, out: Path, mats: list[dict], *, size: int, spp: int, seed: int,
             workers: int, methods=METHODS) -> dict:
     """All materials × methods under one environment → {material: {method: result}}."""
-    from sgpipe.metrics import compare_images, psnr_display
+    from sgpipe.metrics import compare_images
     env_path = DATA / f"{env}.exr"
     out.mkdir(parents=True, exist_ok=True)
     cfg0 = build_config(env_path, mats, mats[0]["name"], ["reference"], size=size, spp=spp,
@@ -158,12 +162,13 @@ def run_env(env: str, out: Path, mats: list[dict], *, size: int, spp: int, seed:
                                seed=seed, workers=workers, render_extra=extra)
             r = _render_method(cfg, out, stage_meth)
             if "image" in r:
-                r.update(compare_images(r["image"], ref["image"]))
-                r["psnr_display_db"] = psnr_display(r["image"], ref["image"],
-                                                    exposure=ENVS.get(env, 0.0))
+                r.update(compare_images(r["image"], ref["image"], exposure=ENVS.get(env, 0.0),
+                                        surface=r.get("surface_mask")))
+                r["psnr_display_db"] = r["display_psnr_db"]
             row[meth] = r
         results[m["name"]] = row
-        done = ", ".join(f"{k}: {v['psnr_db']:.2f} dB" if "psnr_db" in v else f"{k}: missing"
+        done = ", ".join(f"{k}: {v['display_psnr_db']:.2f} dB display"
+                         if "display_psnr_db" in v else f"{k}: missing"
                          for k, v in row.items() if k != "reference")
         print(f"[figures] {env} {m['name']}: reference {ref['wall_s']:.1f} s; {done}",
               file=sys.stderr, flush=True)

@@ -73,6 +73,39 @@ def _fmt_ms(res: dict) -> str:
     return "–" if res.get("ms") is None else f"{res['ms']:.2f}"
 
 
+def _cell(res: dict, key: str, fmt) -> str:
+    """A metric of one method's result, whole frame and surfaces: "32.1 / 30.4"."""
+    if key not in res:
+        return "missing"
+    f = lambda v: "–" if v is None else ("∞" if math.isinf(v) else fmt(v))  # noqa: E731
+    s = res.get("surface")
+    return f(res[key]) + ("" if not s else f" / {f(s[key])}")
+
+
+def _display_tables(res: dict, mats: list[dict], methods) -> list[str]:
+    """Display PSNR, LDR-ꟻLIP and relMSE per method (whole frame / surface pixels)."""
+    L = ["Display PSNR (dB, 8-bit sRGB previews at the sheet's exposure, peak 255; what the "
+         "papers compare; blind to errors above white), LDR-ꟻLIP (display image) and relMSE "
+         "(linear), each as whole frame / surface pixels (3×3 neighbourhood on the sphere); "
+         "`Ref. noise` is the display-PSNR estimate of the reference's own noise:", "",
+         "| material | " + " | ".join(f"{m} display PSNR" for m in methods) + " | "
+         + " | ".join(f"{m} ꟻLIP" for m in methods) + " | "
+         + " | ".join(f"{m} relMSE" for m in methods) + " | Ref. noise dB |",
+         "|" + "---|" * (2 + 3 * len(methods))]
+    for m in mats:
+        row = res[m["name"]]
+        nd = row["reference"].get("noise_display_db")
+        L.append(f"| {m['name']} | "
+                 + " | ".join(_cell(row.get(k, {}), "display_psnr_db", lambda v: f"{v:.2f}")
+                              for k in methods) + " | "
+                 + " | ".join(_cell(row.get(k, {}), "flip_ldr", lambda v: f"{v:.3f}")
+                              for k in methods) + " | "
+                 + " | ".join(_cell(row.get(k, {}), "rel_mse", lambda v: f"{v:.2g}")
+                              for k in methods)
+                 + f" | {'–' if nd is None else _fmt_psnr({'psnr_db': nd})} |")
+    return L + [""]
+
+
 def write_results_md(path: Path, per_env: dict, mats: list[dict], methods, sheets, *,
                      size: int, spp: int, seed: int, seconds: float, command: str) -> Path:
     """docs/RESULTS.md: settings, PSNR / SSIM / ms-per-frame tables, sheets, missing methods."""
@@ -84,8 +117,10 @@ def write_results_md(path: Path, per_env: dict, mats: list[dict], methods, sheet
          f"fov 32°, {size}×{size} pixels, black background (PSNR/SSIM are over the whole "
          f"frame; the sphere covers ≈{100 * _coverage(16.0, 4.0):.0f}% of it). "
          f"Materials: kd = 0, ks = 1, no Fresnel. `reference` = Monte Carlo with MIS, "
-         f"{spp} spp, seed {seed}. PSNR = 10 log10(peak²/MSE) on linear RGB radiance, peak "
-         f"{PSNR_PEAK:g}; SSIM on luminance (Gaussian σ = 1.5); see `sgpipe.metrics`. "
+         f"{spp} spp, seed {seed}. Metrics as `sgpipe compare` reports them (sgpipe.metrics): "
+         "display PSNR = 10 log10(255²/MSE) of the 8-bit sRGB previews, ꟻLIP = NVIDIA's "
+         "flip-evaluator, relMSE = mean (x−r)²/(r²+0.01); linear PSNR = 10 log10(peak²/MSE) "
+         f"on linear RGB radiance, peak {PSNR_PEAK:g}; SSIM on luminance (Gaussian σ = 1.5). "
          "ms/frame: the render stage's warm per-frame time (`<method>_s` in timings.json); for "
          "`reference` the whole Monte Carlo render. `Ref. noise` = PSNR of the reference's own "
          "Monte Carlo error, 10 log10(peak²/mean stderr²) (display: first-order estimate "
@@ -107,6 +142,9 @@ def write_results_md(path: Path, per_env: dict, mats: list[dict], methods, sheet
             L.append(f"- upstream stage `{k}` failed: {v}")
         if up:
             L.append("")
+        L += _display_tables(res, mats, methods)
+        L += ["Linear PSNR (dB, peak 1, decided by the brightest pixels on HDR frames) and SSIM "
+              "(whole frame):", ""]
         head = "| material | α | " + " | ".join(f"{m} PSNR dB" for m in methods) + \
                " | " + " | ".join(f"{m} SSIM" for m in methods) + " | Ref. noise dB |"
         L += [head, "|" + "---|" * (3 + 2 * len(methods))]
@@ -125,17 +163,6 @@ def write_results_md(path: Path, per_env: dict, mats: list[dict], methods, sheet
             for k in methods:
                 if "error" in row.get(k, {}):
                     missing.setdefault((env, k), row[k]["error"])
-        L += ["", "Display PSNR (dB; clamped sRGB previews at the sheet's exposure, closer to "
-              "the papers' 8-bit comparisons; blind to errors above white):", "",
-              "| material | " + " | ".join(methods) + " | Ref. noise dB |",
-              "|" + "---|" * (2 + len(methods))]
-        for m in mats:
-            row = res[m["name"]]
-            nd = row["reference"].get("noise_display_db")
-            L.append(f"| {m['name']} | " + " | ".join(
-                _fmt_psnr({"psnr_db": row[k]["psnr_display_db"]})
-                if "psnr_display_db" in row.get(k, {}) else "missing" for k in methods)
-                + f" | {'–' if nd is None else _fmt_psnr({'psnr_db': nd})} |")
         L += ["", "| material | reference ms | " + " | ".join(f"{m} ms/frame" for m in methods)
               + " |", "|" + "---|" * (2 + len(methods))]
         for m in mats:
