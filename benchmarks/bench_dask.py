@@ -137,7 +137,12 @@ def main() -> int:
                   f"(stage {two['total_s']:.1f} s)", flush=True)
         finally:
             cluster.close()
-        same = _files(tmp / "pool") == _files(tmp / "dask2") == _files(tmp / "dask1")
+        ref = _files(tmp / "pool")
+        differ = {}
+        for run in ("dask1", "dask2"):
+            got = _files(tmp / run)
+            differ[run] = sorted(k for k in set(ref) | set(got) if ref.get(k) != got.get(k))
+        same = not any(differ.values())
     overhead = two["trace_wall_s"] / pool["trace_wall_s"]
     speedup = one["trace_wall_s"] / two["trace_wall_s"]
     ok_o, ok_s = overhead <= OVERHEAD_MAX, speedup >= SPEEDUP_MIN
@@ -146,6 +151,9 @@ def main() -> int:
     print(f"Dask 1 -> 2 workers speed-up     : {speedup:.2f}× (target ≥ {SPEEDUP_MIN}) "
           f"{'ok' if ok_s else 'MISSED'}")
     print(f"artifacts byte-identical (pool, Dask 1, Dask 2): {same}")
+    for run, names in differ.items():
+        if names:
+            print(f"  {run} differs from the pool in {len(names)} files: {names[:5]}")
     return 0 if ok_o and ok_s and same else 1
 
 

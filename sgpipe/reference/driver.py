@@ -51,7 +51,7 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
     multipliers of the diffuse / specular terms (SVBRDF), applied as
     kd_scale·brdf.diffuse + ks_scale·brdf.specular (registry BRDFs only).
     """
-    from sgpipe.parallel import map_chunks
+    from sgpipe.parallel import map_chunks, on_cluster
     from sgpipe.scene.gbuffer import Tracer
 
     if strategy not in ("mis", "brdf", "env"):
@@ -114,7 +114,9 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
     if n_work is None and n_hit * spp < _MIN_SAMPLES_PER_PROCESS_POOL:
         n_work = 1  # starting worker processes (~2 s) costs more than this render
     try:
-        if n_work == 1 or (n_work is None and _single_core()):
+        # On a cluster the tiles may run on other machines: they carry the scene themselves
+        # instead of naming a pickle in this machine's /tmp.
+        if n_work == 1 or on_cluster() or (n_work is None and _single_core()):
             n_work = 1
             shared["env"] = env_s
             for tk in tasks:

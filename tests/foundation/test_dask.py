@@ -211,3 +211,19 @@ def test_only_the_executor_imports_dask():
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "[]", r.stdout
+
+
+def test_reference_tiles_on_the_cluster_are_byte_identical(cluster, tmp_path):
+    """The Monte Carlo reference's pixel tiles carry their scene to remote workers (no file in
+    this machine's /tmp) and give the local run's bytes."""
+    from tiny_scene import tiny_config  # tests/ is on sys.path
+    addr, _, _ = cluster
+    cfg = tmp_path / "ref.yaml"
+    cfg.write_text(tiny_config("[sg, reference]", workers=2))  # several tiles at once
+    rc, _, err = _run("run", cfg, "--out", tmp_path / "local")
+    assert rc == 0, err
+    before = _compute_s(addr, "shade_tile")
+    rc, _, err = _run("run", cfg, "--out", tmp_path / "dask", "--scheduler", addr)
+    assert rc == 0, err
+    assert _compute_s(addr, "shade_tile") > before, "the tiles did not run on the cluster"
+    assert _files(tmp_path / "dask") == _files(tmp_path / "local")
