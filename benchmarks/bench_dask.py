@@ -16,7 +16,10 @@ long against Dask's per-task cost (~1 ms of scheduler time and a round trip). `c
 sets both: 20.6k vertices / 48 per chunk = 430 chunks, ≥ 4 per worker up to 100 workers, and a
 48-vertex chunk at 512² traces for ~1 s (≈ 0.1 s at this benchmark's 160²) — ≥ 100× the
 per-task cost. For N workers pick chunk_vertices ≤ vertices / (4 N); going much below ~16
-vertices (512²) makes scheduling visible. The chunks are the same in every run (Dask or not),
+vertices (512²) makes scheduling visible. The scheduler runs with queuing off
+(`distributed.scheduler.worker-saturation: inf`, as the README starts it): Dask's default keeps
+~1 chunk per worker thread and sends the next after a round trip, which cost 11–14 % here with
+~0.1 s chunks (3–10 % with queuing off). The chunks are the same in every run (Dask or not),
 so the artifacts are the same bytes.
 
     .venv/bin/python -m benchmarks dask
@@ -86,8 +89,11 @@ class LocalDask:
     def _start(self, *args: str) -> None:
         dask = Path(sys.executable).parent / "dask"
         log = open(self.logs / f"{args[0]}{len(self.procs)}.log", "wb")
+        # The scheduler as the README starts it for sgpipe: with queuing off, every worker holds
+        # its next chunks already, instead of idling a round trip after each one.
+        env = {**os.environ, "DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION": "inf"}
         self.procs.append(subprocess.Popen([str(dask), *args], stdout=subprocess.DEVNULL,
-                                           stderr=log))
+                                           stderr=log, env=env))
 
     def add_worker(self, n_total: int) -> None:
         import distributed
