@@ -130,7 +130,7 @@ def dir_to_dual_paraboloid(d, b=1.0):
 
 
 def dual_paraboloid_distortion(d, b=1.0):
-    """Paper 000 eq 11: d(i) = 4 b² (|i_z| + 1)², so Ω_texel ≈ d(i)/(w·h) (eq 9)."""
+    """Töral19 eq 11: d(i) = 4 b² (|i_z| + 1)², so Ω_texel ≈ d(i)/(w·h) (eq 9)."""
     d = np.asarray(d, float)
     return 4.0 * b * b * (np.abs(d[..., 2]) + 1.0) ** 2
 

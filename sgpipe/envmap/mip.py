@@ -1,4 +1,4 @@
-"""Paper 000's lobe-sized MIP lookup (eq 6–11) and the filtered-importance-sampling lod of
+"""Töral19's lobe-sized MIP lookup (eq 6–11) and the filtered-importance-sampling lod of
 Colbert & Křivánek (GPU Gems 3 ch 20), on box-filtered cubemap and dual-paraboloid MIP chains."""
 from __future__ import annotations
 
@@ -76,7 +76,7 @@ def dp_mip_chain(dp: np.ndarray, b: float) -> list[np.ndarray]:
 
 
 def lobe_solid_angle(kappa, a: float = 0.9):
-    """Paper 000 eq 8: Ω_s = −2π ln(1 − a)/κ, the solid angle holding a fraction a of the lobe."""
+    """Töral19 eq 8: Ω_s = −2π ln(1 − a)/κ, the solid angle holding a fraction a of the lobe."""
     return -2.0 * np.pi * math.log(1.0 - a) / np.asarray(kappa, float)
 
 
@@ -148,7 +148,7 @@ class MipChain:
         return out.reshape(shape + (3,))
 
     def lobe_lookup(self, d, kappa, a: float = 0.9) -> np.ndarray:
-        """Paper 000 §V: radiance averaged over the lobe's footprint (the MIP texel at its lod)."""
+        """Töral19 §V: radiance averaged over the lobe's footprint (the MIP texel at its lod)."""
         return self.lookup(d, self.lobe_lod(d, kappa, a))
 
     def lobe_integral(self, d, kappa, taps: int = 16, c: float = 1.0) -> np.ndarray:

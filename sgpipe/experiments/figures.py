@@ -1,4 +1,4 @@
-"""Paper 000's experiment (its Fig 3–4 and PSNR/fps comparison) as `make figures`.
+"""Töral19's experiment (its Fig 3–4 and PSNR/fps comparison) as `make figures`.
 
     python -m sgpipe.experiments.figures --out out/figures [--size 128] [--spp 512] [--quick]
 

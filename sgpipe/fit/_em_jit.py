@@ -148,7 +148,7 @@ def _set_moments(x, w, sel, k, alpha, mu, kappa, kappa_max):
 
 @njit(cache=True)
 def init_sort_split(x, w, alpha, mu, kappa, kappa_max):
-    """Paper 000 §IV initialisation in place: spherical coordinates (θ, φ) of the samples about
+    """Töral19 §IV initialisation in place: spherical coordinates (θ, φ) of the samples about
     their mean direction m (tangent x-axis projected, else y), sort along the highest-variance
     axis of (θ cos φ, θ sin φ), split into K sets of equal weight, moments of each set."""
     k_n = alpha.shape[0]

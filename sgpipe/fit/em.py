@@ -32,7 +32,7 @@ class VMFMixture:
 
 
 def init_sort_split(x, w, n_lobes: int, kappa_max: float = KAPPA_MAX):
-    """Paper 000 §IV initialisation: spherical coordinates (θ, φ) of the samples about their
+    """Töral19 §IV initialisation: spherical coordinates (θ, φ) of the samples about their
     mean direction, sort along the highest-variance axis of (θ cos φ, θ sin φ), split into
     n_lobes sets of equal weight, moments of each set -> (alpha (K,), mu (K,3), kappa (K,))."""
     alpha = np.empty(n_lobes)

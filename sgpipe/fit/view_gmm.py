@@ -196,7 +196,7 @@ def fit_view_gmm(brdf, *, n_theta: int = 16, n_phi: int = 1, theta_max: float = 
                  n_lobes: int = 8, n_samples: int = 4096, max_iter: int = 100,
                  tol: float = 1e-5, coherent: bool = False, align: float = 1.0, seed: int = 0,
                  include_diffuse: bool = False, errors: bool = True) -> ViewGMM:
-    """Paper 000 §IV: for views o_j draw M importance samples of ρ(i,o_j)(n·i), fit K vMF
+    """Töral19 §IV: for views o_j draw M importance samples of ρ(i,o_j)(n·i), fit K vMF
     lobes by spherical EM, scale amplitudes to the slice integral."""
     theta, phi, dirs = view_grid(n_theta, n_phi, theta_max)
     x, w, y = draw_samples(brdf, dirs, n_samples, seed, include_diffuse)

@@ -1,4 +1,4 @@
-"""Paper 000 MIP chains (eq 6–11) and the FIS lod (Colbert & Křivánek)."""
+"""Töral19 MIP chains (eq 6–11) and the FIS lod (Colbert & Křivánek)."""
 import math
 
 import numpy as np

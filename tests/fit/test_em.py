@@ -100,7 +100,7 @@ def test_batch_equals_single_fits():
 
 
 def test_sort_split_init_moments():
-    """Paper 000 init: equal-weight sets; each lobe's κ is its set's Banerjee moment estimate."""
+    """Töral19 init: equal-weight sets; each lobe's κ is its set's Banerjee moment estimate."""
     x, _ = _mixture_samples(4000, seed=5)
     a, mu, k = init_sort_split(x, np.ones(len(x)), 8)
     np.testing.assert_allclose(a, 1 / 8, atol=1e-3)

@@ -38,7 +38,7 @@ class EnvmapSection:
         "Γ_L pyramid: a bright layer of at most this many texels (a sun, a few lamps) is kept "
         "as exact point masses beside the levels (no λ-interpolation error); 0 = always in the "
         "levels.", 256, ge=0, le=4096)
-    mip_coverage: float = doc("Paper 000 eq 7–8: fraction a of the lobe whose solid angle sets "
+    mip_coverage: float = doc("Töral19 eq 7–8: fraction a of the lobe whose solid angle sets "
                               "the MIP level.", 0.9, gt=0.0, lt=1.0)
     dp_scale: float = doc("Dual-paraboloid scale b (Töral19 eq 11; 1.2 as in GPU Gems 3).",
                           1.2, ge=1.0, le=2.0)

@@ -49,7 +49,7 @@ class NdfSGSpec:
 
 @dataclass
 class ViewGmmSpec:
-    """Paper 000 §IV: per-view vMF mixtures of ρ(i, o_j)(n·i) fitted by spherical EM."""
+    """Töral19 §IV: per-view vMF mixtures of ρ(i, o_j)(n·i) fitted by spherical EM."""
 
     enabled: bool = doc("Fit the per-view mixtures.", True)
     lobes: int = doc("vMF lobes per view (paper: 8).", 8, ge=1, le=32)
@@ -87,7 +87,7 @@ class FitSection:
 
     materials: list[MaterialSpec] = doc("Materials.", default_factory=list)
     ndf_sg: NdfSGSpec = doc("Wang09 NDF lobes.", default_factory=NdfSGSpec)
-    view_gmm: ViewGmmSpec = doc("Paper 000 per-view mixtures.", default_factory=ViewGmmSpec)
+    view_gmm: ViewGmmSpec = doc("Töral19 per-view mixtures.", default_factory=ViewGmmSpec)
 
     def validate(self):
         names = [m.name for m in self.materials]

@@ -62,14 +62,14 @@ inline float3 cube_mip(__global const float4 *data, __global const int *off, __g
     return mix(a, cube_bilinear(data, off[l1], res[l1], d), f);
 }
 
-/* Paper 000 eq 9 with the cube distortion D(d) = 4 max(|d_x|, |d_y|, |d_z|)³ (unit d):
+/* Töral19 eq 9 with the cube distortion D(d) = 4 max(|d_x|, |d_y|, |d_z|)³ (unit d):
  * solid angle of a finest-level texel (face resolution N) around d. */
 inline float cube_texel_solid_angle(float3 d, int N) {
     float ma = fmax(fabs(d.x), fmax(fabs(d.y), fabs(d.z)));
     return 4.0f * ma * ma * ma / ((float)N * (float)N);
 }
 
-/* Paper 000 eq 8 + 10: MIP level of a lobe of sharpness κ holding the fraction a of its mass. */
+/* Töral19 eq 8 + 10: MIP level of a lobe of sharpness κ holding the fraction a of its mass. */
 inline float cube_lobe_lod(float3 d, float kappa, float a, int N) {
     float omega_s = -SG_TWO_PI * log(1.0f - a) / fmax(kappa, 1e-6f);
     return 0.5f * log2(omega_s / cube_texel_solid_angle(d, N));

@@ -58,7 +58,7 @@ inline SG sg_warp(SG g, float3 o) {
 #define SG_COS_MU 1.170f
 inline SG sg_clamped_cosine(float3 n) { return sg_make(n, SG_COS_LAMBDA, (float3)(SG_COS_MU)); }
 
-/* Paper 000 eq 8: solid angle holding the fraction `a` of a lobe, Ω_s = −2π ln(1 − a) / κ. */
+/* Töral19 eq 8: solid angle holding the fraction `a` of a lobe, Ω_s = −2π ln(1 − a) / κ. */
 inline float sg_solid_angle(float lam, float a) { return -SG_TWO_PI * log(1.0f - a) / lam; }
 
 /* vMF κ, weight w ↔ SG λ = κ, μ = w κ / (2π (1 − e^{−2κ})). */
