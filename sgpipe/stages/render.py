@@ -118,7 +118,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
                 round(float(c), 6) for c in img.reshape(-1, 3).mean(0)]
         run.report["shaded_pixels"] = int(len(frame.index))
         if rs.compare_to is not None:
-            _compare(run, images, rs.compare_to)
+            _compare(run, images, rs.compare_to, gb.object_id)
     return run
 
 
@@ -159,13 +159,13 @@ def _reference(cfg, bundle, run) -> np.ndarray:
     return res.image
 
 
-def _compare(run, images: dict, truth: str) -> None:
+def _compare(run, images: dict, truth: str, object_id: np.ndarray) -> None:
     """Metrics of every other method against `truth` via the compare stage's hook: display
     metrics at the preview exposure, surface variants from the G-buffer's object ids."""
     from sgpipe.metrics import surface_mask
     from sgpipe.stages.compare import compare_to_reference
     ref_path = run.path(art.image_name(truth))
-    surface = surface_mask(art.read_gbuffer(run.staging).object_id)
+    surface = surface_mask(object_id)
     for method, img in images.items():
         if method == truth:
             continue
