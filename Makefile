@@ -7,7 +7,9 @@ STAMP  := $(VENV)/.sgpipe-installed
 BENCH_STAMP := $(VENV)/.sgpipe-bench-installed
 OUT    ?= out
 
-.PHONY: setup opencl demo test bench figures samples doctor clean
+VALIDATE_STAMP := $(VENV)/.sgpipe-validate-installed
+
+.PHONY: setup opencl browser demo test bench validate figures samples doctor clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -20,7 +22,16 @@ $(BENCH_STAMP): $(STAMP)
 	$(PY) -m pip install -q -e '.[test,dask,bench]'
 	touch $(BENCH_STAMP)
 
-setup: $(STAMP) opencl
+# Mitsuba 3, the independent renderer `make validate` checks the reference against
+$(VALIDATE_STAMP): $(STAMP)
+	$(PY) -m pip install -q -e '.[test,dask,validate]'
+	touch $(VALIDATE_STAMP)
+
+setup: $(STAMP) opencl browser
+
+# headless Chromium + chromedriver for the HTML report's browser test
+browser: $(STAMP)
+	@bash tools/ensure_browser.sh
 
 opencl: $(STAMP)
 	@bash tools/ensure_opencl.sh $(PY)
@@ -40,6 +51,11 @@ test: setup
 ## speed and memory targets, printed as ratios against baselines measured in the same run
 bench: setup $(BENCH_STAMP)
 	$(PY) -m benchmarks
+
+## the Monte Carlo reference against Mitsuba 3 on scenes of its own (display PSNR, FLIP)
+validate: setup $(VALIDATE_STAMP)
+	@bash tools/ensure_llvm.sh
+	$(PY) -m validation --out $(OUT)/validate
 
 ## Töral19's experiment: docs/RESULTS.md and contact sheets
 figures: setup

@@ -233,6 +233,17 @@ def doctor():
     sys.exit(run_doctor())
 
 
+def _register_commands():
+    """Commands whose code lives with their concept (click-only modules: cheap to import)."""
+    from sgpipe.export.command import export
+    from sgpipe.report.command import report
+    cli.add_command(export)
+    cli.add_command(report)
+
+
+_register_commands()
+
+
 def main(argv=None):
     """Entry point: BadInput -> one line on stderr, exit 2; bugs -> traceback, exit 1;
     SIGINT / SIGTERM -> one line, exit 128 + signal number (130 / 143)."""

@@ -1,0 +1,1 @@
+"""A self-contained static HTML report of a run folder."""
