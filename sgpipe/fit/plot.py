@@ -1,79 +1,98 @@
-"""Tiny raster plots for fit reports (no matplotlib): error-vs-lobes curves (Green06 Fig 5
-style) and function-vs-fit slice previews, drawn straight into float RGB arrays."""
+"""Fit-report plots drawn by matplotlib (Agg, no pyplot state): error-vs-lobes curves (Green06
+Fig 5 style) and BRDF-slice vs fit panels, saved as deterministic PNGs (same data → same
+bytes); `hemisphere_image` samples a function on the upper hemisphere for the panels."""
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 
-# 3×5 bitmap glyphs (rows top→bottom, 3 bits each) for tick labels.
-_GLYPHS = {
-    "0": (7, 5, 5, 5, 7), "1": (2, 6, 2, 2, 7), "2": (7, 1, 7, 4, 7), "3": (7, 1, 7, 1, 7),
-    "4": (5, 5, 7, 1, 1), "5": (7, 4, 7, 1, 7), "6": (7, 4, 7, 5, 7), "7": (7, 1, 1, 1, 1),
-    "8": (7, 5, 7, 5, 7), "9": (7, 5, 7, 1, 7), ".": (0, 0, 0, 0, 2), "-": (0, 0, 7, 0, 0),
-    "e": (0, 7, 7, 4, 7), " ": (0, 0, 0, 0, 0),
-}
-COLOURS = [(0.85, 0.1, 0.1), (0.1, 0.35, 0.85), (0.1, 0.6, 0.2), (0.8, 0.5, 0.0),
-           (0.5, 0.1, 0.7), (0.0, 0.6, 0.6), (0.4, 0.4, 0.4), (0.9, 0.3, 0.6)]
+DPI = 100
+#: PNG text chunks matplotlib would write (its version as Software); None drops them, so the
+#: bytes depend on the data alone
+PNG_METADATA = {"Software": None}
+_RC = {"font.family": "DejaVu Sans", "font.size": 9, "axes.titlesize": 9,
+       "axes.labelsize": 9, "legend.fontsize": 8, "svg.hashsalt": "sgpipe",
+       "path.simplify": False}
 
 
-def draw_text(img, x: int, y: int, text: str, colour=(0.0, 0.0, 0.0), scale: int = 2):
-    """Draw `text` with the 3×5 font, top-left at (x, y)."""
-    for n, ch in enumerate(text):
-        rows = _GLYPHS.get(ch, _GLYPHS[" "])
-        for r, bits in enumerate(rows):
-            for c in range(3):
-                if bits >> (2 - c) & 1:
-                    y0, x0 = y + r * scale, x + (n * 4 + c) * scale
-                    img[max(y0, 0):y0 + scale, max(x0, 0):x0 + scale] = colour
+def new_figure(width_in: float, height_in: float, **kw):
+    """A matplotlib Figure on the Agg canvas (thread-safe: no pyplot, no global figure list)."""
+    import matplotlib
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    with matplotlib.rc_context(_RC):
+        fig = Figure(figsize=(width_in, height_in), dpi=DPI, **kw)
+    FigureCanvasAgg(fig)
+    return fig
 
 
-def _line(img, p0, p1, colour, width=2):
-    n = int(max(abs(p1[0] - p0[0]), abs(p1[1] - p0[1]))) * 2 + 2
-    xs = np.linspace(p0[0], p1[0], n).round().astype(int)
-    ys = np.linspace(p0[1], p1[1], n).round().astype(int)
-    h, w = img.shape[:2]
-    for dx in range(width):
-        for dy in range(width):
-            ok = (xs + dx < w) & (ys + dy < h) & (xs + dx >= 0) & (ys + dy >= 0)
-            img[ys[ok] + dy, xs[ok] + dx] = colour
+def save_png(fig, path: str | os.PathLike) -> Path:
+    """Write `fig` as PNG atomically, without the Software / date text chunks."""
+    from sgpipe.io.atomic import atomic_path
+    import matplotlib
+    path = Path(path)
+    with matplotlib.rc_context(_RC), atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=DPI, metadata=PNG_METADATA)
+    return path
 
 
-def plot_curves(series: list[tuple[list[float], list[float]]], *, width: int = 480,
-                height: int = 320, log_y: bool = True) -> np.ndarray:
-    """Line plot of (x, y) series on a white RGB float image; log10 y axis with decade labels."""
-    img = np.ones((height, width, 3))
-    left, right, top, bottom = 56, 16, 16, 36
-    xs = np.concatenate([np.asarray(s[0], float) for s in series]) if series else np.zeros(1)
-    ys = np.concatenate([np.asarray(s[1], float) for s in series]) if series else np.ones(1)
-    ys = ys[np.isfinite(ys) & (ys > 0)] if log_y else ys[np.isfinite(ys)]
-    tf = np.log10 if log_y else (lambda v: np.asarray(v, float))
-    lo, hi = (np.floor(tf(ys.min())), np.ceil(tf(ys.max()))) if ys.size else (0.0, 1.0)
-    hi = hi if hi > lo else lo + 1
-    x_lo, x_hi = float(xs.min()), float(max(xs.max(), xs.min() + 1))
+def error_curves_figure(series: list[tuple[str, list, list]], *, title: str = ""):
+    """Relative L2 error (log axis) against the lobe count, one labelled line per series
+    (label, lobe counts, errors); non-positive / non-finite errors are left out."""
+    import matplotlib
+    with matplotlib.rc_context(_RC):
+        fig = new_figure(5.6, 3.6)
+        ax = fig.add_subplot()
+        for label, xs, ys in series:
+            xs, ys = np.asarray(xs, float), np.asarray(ys, float)
+            ok = np.isfinite(ys) & (ys > 0)
+            ax.plot(xs[ok], ys[ok], marker="o", markersize=4, linewidth=1.5, label=label)
+        ax.set_yscale("log")
+        ax.set_xlabel("lobes")
+        ax.set_ylabel("relative L2 error")
+        lobes = sorted({int(x) for _, xs, _ in series for x in xs})
+        if lobes:
+            ax.set_xticks(lobes)
+        ax.grid(True, which="both", alpha=0.3)
+        if series:
+            ax.legend(loc="best")
+        if title:
+            ax.set_title(title)
+        fig.tight_layout()
+    return fig
 
-    def px(x, y):
-        u = left + (x - x_lo) / (x_hi - x_lo) * (width - left - right)
-        v = top + (hi - tf(max(y, 1e-300) if log_y else y)) / (hi - lo) * (height - top - bottom)
-        return u, v
 
-    for d in range(int(lo), int(hi) + 1):                       # horizontal decade grid
-        _, v = px(x_lo, 10.0**d if log_y else d)
-        _line(img, (left, v), (width - right, v), (0.85, 0.85, 0.85), 1)
-        draw_text(img, 4, int(v) - 5, f"1e{d}" if log_y else f"{d}")
-    for x in range(int(np.ceil(x_lo)), int(x_hi) + 1):          # integer x ticks
-        u, _ = px(x, 10.0**lo if log_y else lo)
-        _line(img, (u, height - bottom), (u, height - bottom + 4), (0, 0, 0), 1)
-        draw_text(img, int(u) - 3, height - bottom + 8, str(x))
-    _line(img, (left, top), (left, height - bottom), (0, 0, 0), 1)
-    _line(img, (left, height - bottom), (width - right, height - bottom), (0, 0, 0), 1)
-    for k, (sx, sy) in enumerate(series):
-        col = COLOURS[k % len(COLOURS)]
-        pts = [px(x, y) for x, y in zip(sx, sy) if np.isfinite(y) and (y > 0 or not log_y)]
-        for a, b in zip(pts[:-1], pts[1:]):
-            _line(img, a, b, col, 2)
-        for u, v in pts:
-            img[int(v) - 3:int(v) + 4, int(u) - 3:int(u) + 4] = col
-    return img
+def slice_panels_figure(rows: list[tuple[np.ndarray, np.ndarray]], labels: list[str]):
+    """One row per view: the BRDF slice ρ(i,o)(n·i), its vMF-mixture fit and |difference|,
+    each row scaled by the slice's maximum; images are orthographic views of the upper
+    hemisphere of i (x right, y up, as `hemisphere_image` samples them)."""
+    import matplotlib
+    with matplotlib.rc_context(_RC):
+        n = len(rows)
+        fig = new_figure(7.2, 2.3 * n + 0.3)
+        axes = fig.subplots(n, 3, squeeze=False)
+        titles = ("BRDF × cos slice", "vMF mixture fit", "|slice − fit|")
+        for r, ((f, g), label) in enumerate(zip(rows, labels)):
+            s = 1.0 / max(float(np.max(f)), 1e-300)
+            panels = (f * s, g * s, np.abs(f - g) * s)
+            for c, (ax, img) in enumerate(zip(axes[r], panels)):
+                im = ax.imshow(img, cmap="Reds" if c == 2 else "gray", vmin=0.0,
+                               vmax=1.0 if c < 2 else max(float(img.max()), 1e-12),
+                               extent=(-1, 1, -1, 1), origin="upper",
+                               interpolation="nearest")
+                ax.set_title(f"{titles[c]}\n{label}" if c == 0 else titles[c])
+                ax.set_xlabel("x (tangent)")
+                if c == 0:
+                    ax.set_ylabel("y (bitangent)")
+                ax.set_xticks([-1, 0, 1])
+                ax.set_yticks([-1, 0, 1])
+                fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04,
+                             label="relative to the slice's max" if c == 1 else "")
+        fig.tight_layout()
+    return fig
 
 
 def hemisphere_image(fn, res: int = 96) -> np.ndarray:
@@ -87,19 +106,3 @@ def hemisphere_image(fn, res: int = 96) -> np.ndarray:
     out = np.zeros((res, res))
     out[inside] = fn(d)
     return out
-
-
-def slice_panels(rows: list[tuple[np.ndarray, np.ndarray]], gap: int = 4) -> np.ndarray:
-    """Rows of [function | fit | |difference| (red)], each row scaled by the function's max."""
-    res = rows[0][0].shape[0]
-    img = np.ones((len(rows) * (res + gap) + gap, 3 * (res + gap) + gap, 3))
-    for r, (f, g) in enumerate(rows):
-        s = 1.0 / max(float(f.max()), 1e-300)
-        y0 = gap + r * (res + gap)
-        for c, panel in enumerate((f * s, g * s)):
-            x0 = gap + c * (res + gap)
-            img[y0:y0 + res, x0:x0 + res] = np.clip(panel, 0, 1)[..., None]
-        x0 = gap + 2 * (res + gap)
-        diff = np.clip(np.abs(f - g) * s, 0, 1)
-        img[y0:y0 + res, x0:x0 + res] = np.stack([diff, 0 * diff, 0 * diff], -1)
-    return img

@@ -13,7 +13,7 @@ from sgpipe.brdf import LUMINANCE, REGISTRY, BRDFParamError, brdf_from_spec
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
 from sgpipe.fit.ndf_sg import NdfSG, analytic_ndf_sg, fit_ndf_sg, ndf_error_curve
-from sgpipe.fit.plot import plot_curves, slice_panels
+from sgpipe.fit.plot import error_curves_figure, save_png, slice_panels_figure
 from sgpipe.fit.view_gmm import (fit_view_gmm, interpolation_errors, lobe_curve,
                                  slice_images)
 from sgpipe.stages.base import StageRun, log
@@ -155,14 +155,18 @@ def write_view_gmm(run, name: str, brdf, spec, seed: int, ndf_rep: dict) -> dict
         rep["curve"] = {"lobes": list(range(1, spec.report_lobes + 1)),
                         "view_theta_deg": list(spec.report_views_deg), "rel_l2": curve,
                         "rel_l2_mean": curve.mean(axis=0)}
-        series += [(rep["curve"]["lobes"], list(c)) for c in curve]
+        series += [(f"vMF mixture, view θ = {t:g}°", rep["curve"]["lobes"], list(c))
+                   for t, c in zip(spec.report_views_deg, curve)]
     if "curve" in ndf_rep:
-        series.append((ndf_rep["curve"]["lobes"], ndf_rep["curve"]["rel_l2"]))
+        series.append(("NDF SG fit (Wang09)", ndf_rep["curve"]["lobes"], ndf_rep["curve"]["rel_l2"]))
     if series:
-        run.write_png(artifacts.material_file(name, artifacts.ERROR_PLOT), plot_curves(series))
+        save_png(error_curves_figure(series, title=f"{name}: fit error vs lobes"),
+                 run.path(artifacts.material_file(name, artifacts.ERROR_PLOT)))
     if len(thetas):
-        run.write_png(artifacts.material_file(name, artifacts.SLICES),
-                      slice_panels(slice_images(brdf, gmm, thetas)))
+        grid = [np.degrees(gmm.view_theta[np.argmin(np.abs(gmm.view_theta - t))]) for t in thetas]
+        save_png(slice_panels_figure(slice_images(brdf, gmm, thetas),
+                                     [f"{name}, view θ = {t:.1f}°" for t in grid]),
+                 run.path(artifacts.material_file(name, artifacts.SLICES)))
     if spec.holdout and spec.theta_count > 1:
         th_h, err = interpolation_errors(brdf, gmm)
         key = "coherent" if spec.coherent else "independent"
