@@ -16,13 +16,20 @@
   and `irradiance` (directional: RGB W/m² on a surface facing the light) or `intensity`
   (point: RGB W/sr). Each adds f·E·cos θ·V (point: f·I·cos θ·V/r²), evaluated exactly.
 
-Per pixel (one primary ray through the pixel centre, like the other methods) the estimator of
-L_o = ∫ f(o, i) L_env(i) cos θ_i V(i) dω_i takes, per sample, one BRDF sample and one
+Per pixel the estimator integrates over the pixel footprint with a reconstruction filter
+(`pixel_filter`: box over the pixel by default, tent, Gaussian, or `center` = one ray through
+the pixel centre like the real-time methods; sgpipe.reference.pixel_filter): each sample takes
+its own camera ray through a sub-pixel position drawn from the filter (a per-pixel shifted R2
+low-discrepancy pattern), traced with Embree in batches (`surface.primary_rows`); misses add the
+background, hits add the exact delta lights plus an estimate of
+L_o = ∫ f(o, i) L_env(i) cos θ_i V(i) dω_i from one BRDF sample and one
 environment sample combined with multiple importance sampling (Veach 1997; `mis="power"` β=2,
 or `"balance"`); `strategy="brdf"` / `"env"` use one technique alone (same spp, for the
 unbiasedness tests). Visibility: shadow rays through `Tracer.occluded` (Embree for meshes,
 analytic spheres), offset along the geometric normal; directions below the geometric surface
 are black. Misses show the environment (`background="env"`) or black.
+`maps` (per object `surface.ObjectMaps`): tangent-space normal maps and kd / ks texture
+multipliers, with the kernels' conventions (shading.h `pixel_init`).
 
 Random numbers are counter-based (seed, pixel id, sample index, dimension; see
 `_sampling_jit.uniforms`), pixels are split into fixed 32×32 tiles mapped with
@@ -31,15 +38,15 @@ Random numbers are counter-based (seed, pixel id, sample index, dimension; see
 the image after n spp does not depend on k. `render_reference_result` also returns the
 per-pixel standard error of the mean (from the sample variance) and timing. From a validated
 config: `sgpipe.stages.render.reference_from_config(cfg)` (the one config → reference path).
-Optional inputs: `gbuffer` (precomputed, e.g. normal-mapped, G-buffer of `camera.rays()`),
-`kd_scale` / `ks_scale` (H, W, 3) SVBRDF texture multipliers of the diffuse / specular terms.
 Light config objects with `vector` (renderer `Light`) are accepted too.
 """
 
 from sgpipe.reference.driver import (TILE, ReferenceResult, render_reference,
                                      render_reference_result)
+from sgpipe.reference.pixel_filter import FILTER_TYPES, PixelFilter
 from sgpipe.reference.sampler import EnvSampler
 from sgpipe.reference.shading import normalize_lights
+from sgpipe.reference.surface import ObjectMaps
 
 __all__ = ["render_reference", "render_reference_result", "ReferenceResult", "EnvSampler",
-           "normalize_lights", "TILE"]
+           "normalize_lights", "TILE", "PixelFilter", "FILTER_TYPES", "ObjectMaps"]

@@ -152,3 +152,28 @@ def accumulate(est, n_pix, n_s, out_sum, out_sq):
                 v = est[k, ch]
                 out_sum[p, ch] += v
                 out_sq[p, ch] += v * v
+
+
+@njit(cache=True)
+def tex_bilinear(img, uv):
+    """Bilinear texture lookup (N, C) at uv (N, 2), as the kernels' tex_bilinear (shading.h):
+    OBJ uv (v = 0 is the bottom row), texel centres at half-integers, repeat addressing."""
+    h, w, c = img.shape
+    n = uv.shape[0]
+    out = np.empty((n, c))
+    for k in range(n):
+        x = (uv[k, 0] - np.floor(uv[k, 0])) * w - 0.5
+        y = (1.0 - (uv[k, 1] - np.floor(uv[k, 1]))) * h - 0.5
+        x0f = np.floor(x)
+        y0f = np.floor(y)
+        fx = x - x0f
+        fy = y - y0f
+        x0 = (int(x0f) % w + w) % w
+        y0 = (int(y0f) % h + h) % h
+        x1 = (x0 + 1) % w
+        y1 = (y0 + 1) % h
+        for ch in range(c):
+            a = img[y0, x0, ch] + fx * (img[y0, x1, ch] - img[y0, x0, ch])
+            b = img[y1, x0, ch] + fx * (img[y1, x1, ch] - img[y1, x0, ch])
+            out[k, ch] = a + fy * (b - a)
+    return out

@@ -1,6 +1,7 @@
-"""The `reference` method's driver (contract: sgpipe.reference): primary rays, 32×32 tiles of hit
-pixels mapped over workers (`shading.shade_tile`), and the image, standard error and progressive
-checkpoints assembled from the tiles' sums."""
+"""The `reference` method's driver (contract: sgpipe.reference): 32×32 pixel tiles mapped over
+workers (`shading.shade_tile`: per sample a camera ray through the pixel filter, its first hit
+shaded), and the image, standard error and progressive checkpoints assembled from the tiles'
+sums."""
 
 from __future__ import annotations
 
@@ -33,6 +34,7 @@ class ReferenceResult:
     seconds: float
     samples: int                           # hit pixels × spp × techniques
     checkpoints: list = field(default_factory=list)  # [(spp, (H, W, 3) float32), ...]
+    coverage: np.ndarray | None = None     # (H, W) float32 fraction of samples that hit
 
     @property
     def samples_per_s(self) -> float:
@@ -43,15 +45,16 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
                             seed: int = 0, workers: int | None = None,
                             progressive_every: int = 0, strategy: str = "mis",
                             mis: str = "power", background: str | bool = "env",
-                            gbuffer=None, kd_scale=None, ks_scale=None) -> ReferenceResult:
+                            pixel_filter=None, maps=None) -> ReferenceResult:
     """Render and return image, standard error, timing and progressive checkpoints.
 
-    `gbuffer`: a precomputed `GBuffer` of `camera.rays()` (e.g. with normal-mapped shading
-    normals/tangents) used instead of tracing; `kd_scale` / `ks_scale`: (H, W, 3) texture
-    multipliers of the diffuse / specular terms (SVBRDF), applied as
-    kd_scale·brdf.diffuse + ks_scale·brdf.specular (registry BRDFs only).
+    `pixel_filter`: a `PixelFilter`, its type name or a dict (type, radius, stddev); None is
+    the box filter over the pixel. `maps`: per object (aligned with `objects`) an `ObjectMaps`
+    (or dict) of normal map and kd / ks multipliers, or None.
     """
     from sgpipe.parallel import map_chunks, on_cluster
+    from sgpipe.reference.pixel_filter import PixelFilter
+    from sgpipe.reference.surface import ObjectMaps
     from sgpipe.scene.gbuffer import Tracer
 
     if strategy not in ("mis", "brdf", "env"):
@@ -69,49 +72,34 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
     mats = [_material_key(m) for m in materials]
     if len(mats) != len(objects):
         raise ValueError(f"{len(mats)} materials for {len(objects)} objects")
+    maps = [ObjectMaps.of(m) for m in (maps if maps is not None else [None] * len(objects))]
+    if len(maps) != len(objects):
+        raise ValueError(f"{len(maps)} object maps for {len(objects)} objects")
+    filt = PixelFilter.of(pixel_filter)
     t0 = time.perf_counter()
     env_s = env if isinstance(env, EnvSampler) else EnvSampler(env)
+    h, w = camera.height, camera.width
+    # the pixel-centre hit mask (the other methods' G-buffer), reported as `hit`
     origins, dirs = camera.rays()
-    h, w = origins.shape[:2]
-    gb = gbuffer if gbuffer is not None else (Tracer(objects).trace(origins, dirs)
-                                               if objects else None)
-    if gb is not None and gb.hit.shape != (h, w):
-        raise ValueError(f"gbuffer shape {gb.hit.shape} does not match the camera {(h, w)}")
-    tex_maps = None
-    if kd_scale is not None or ks_scale is not None:
-        one = np.ones((h, w, 3))
-        tex_maps = tuple(one if a is None else np.broadcast_to(np.asarray(a, np.float64),
-                                                               (h, w, 3)) for a in
-                         (kd_scale, ks_scale))
+    centre_hit = (Tracer(objects).trace(origins, dirs).hit if objects
+                  else np.zeros((h, w), bool))
     every = int(progressive_every or 0)
     cks = list(range(every, spp, every)) + [spp] if every > 0 else [spp]
     opts = {"spp": spp, "checkpoints": cks, "strategy": strategy, "mis": mis,
-            "seed": int(seed)}
+            "seed": int(seed), "background": background}
     shared = {"objects": objects, "env": env_s.rgb, "materials": mats,
-              "lights": normalize_lights(lights), "opts": opts}
+              "lights": normalize_lights(lights), "opts": opts, "camera": camera,
+              "maps": maps, "filter": filt}
     tasks = []
     key = uuid.uuid4().hex
     tmpdir = None
-    if gb is not None:
-        for r0 in range(0, h, TILE):
-            for c0 in range(0, w, TILE):
-                hit = gb.hit[r0:r0 + TILE, c0:c0 + TILE]
-                if not hit.any():
-                    continue
-                rr, cc = np.nonzero(hit)
-                rr, cc = rr + r0, cc + c0
-                task = {"key": key, "rows": rr, "cols": cc,
-                        "pixel_ids": (rr * w + cc).astype(np.int64),
-                        "material": gb.object_id[rr, cc].astype(np.int64)}
-                for name in ("position", "normal", "tangent", "bitangent", "geo_normal",
-                             "view"):
-                    task[name] = getattr(gb, name)[rr, cc]
-                if tex_maps is not None:
-                    task["tex"] = (tex_maps[0][rr, cc], tex_maps[1][rr, cc])
-                tasks.append(task)
+    for r0 in range(0, h, TILE):
+        for c0 in range(0, w, TILE):
+            rr, cc = np.indices((min(TILE, h - r0), min(TILE, w - c0)))
+            rr, cc = (rr.ravel() + r0).astype(np.int64), (cc.ravel() + c0).astype(np.int64)
+            tasks.append({"key": key, "rows": rr, "cols": cc, "pixel_ids": rr * w + cc})
     n_work = 1 if len(tasks) <= 1 else (workers or None)
-    n_hit = int(gb.hit.sum()) if gb is not None else 0
-    if n_work is None and n_hit * spp < _MIN_SAMPLES_PER_PROCESS_POOL:
+    if n_work is None and int(centre_hit.sum()) * spp < _MIN_SAMPLES_PER_PROCESS_POOL:
         n_work = 1  # starting worker processes (~2 s) costs more than this render
     try:
         # On a cluster the tiles may run on other machines: they carry the scene themselves
@@ -133,28 +121,26 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
         if tmpdir:
             shutil.rmtree(tmpdir, ignore_errors=True)
         _CACHE.clear()
-    bg = np.zeros((h, w, 3))
-    if background == "env":
-        rad, _ = env_s.lookup(np.asarray(dirs, np.float64).reshape(-1, 3))
-        bg = rad.reshape(h, w, 3)
-    hit = gb.hit if gb is not None else np.zeros((h, w), bool)
-    img = np.where(hit[..., None], 0.0, bg)
+    img = np.zeros((h, w, 3))
     err = np.zeros((h, w, 3))
-    ck_imgs = [img.copy() for _ in cks]
+    cover = np.zeros((h, w))
+    ck_imgs = [np.zeros((h, w, 3)) for _ in cks]
     for tk, res in zip(tasks, results):
         rr, cc = tk["rows"], tk["cols"]
         mean = res["sum"] / spp
         var = np.maximum(res["sq"] / spp - mean * mean, 0.0) * spp / max(spp - 1, 1)
-        img[rr, cc] = mean + res["direct"]
+        img[rr, cc] = mean
         err[rr, cc] = np.sqrt(var / spp)
+        cover[rr, cc] = res["hits"] / spp
         for k, (c, s) in enumerate(zip(cks, res["checkpoints"])):
-            ck_imgs[k][rr, cc] = s / c + res["direct"]
+            ck_imgs[k][rr, cc] = s / c
     seconds = time.perf_counter() - t0
     n_tech = 2 if strategy == "mis" else 1
     return ReferenceResult(image=img.astype(np.float32), stderr=err.astype(np.float32),
-                           hit=hit, spp=spp, seconds=seconds,
-                           samples=int(hit.sum()) * spp * n_tech,
-                           checkpoints=[(c, im.astype(np.float32)) for c, im in zip(cks, ck_imgs)])
+                           hit=centre_hit, spp=spp, seconds=seconds,
+                           samples=int(round(cover.sum() * spp)) * n_tech,
+                           checkpoints=[(c, im.astype(np.float32)) for c, im in zip(cks, ck_imgs)],
+                           coverage=cover.astype(np.float32))
 
 
 def _single_core() -> bool:

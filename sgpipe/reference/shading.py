@@ -180,61 +180,83 @@ def _shared(task):
                       env=shared["env"] if isinstance(shared["env"], EnvSampler)
                       else EnvSampler(shared["env"]),
                       brdfs=[_make_brdf(m) for m in shared["materials"]],
-                      lights=shared["lights"], opts=shared["opts"])
+                      lights=shared["lights"], opts=shared["opts"], camera=shared["camera"],
+                      maps=shared["maps"], filter=shared["filter"])
     return _CACHE
 
 
-def shade_tile(task) -> dict:
-    """Render one tile (module-level for map_chunks): returns checkpoint sums and variances."""
-    sh = _shared(task)
-    tracer, env, brdfs, lights, opts = sh["tracer"], sh["env"], sh["brdfs"], sh["lights"], \
-        sh["opts"]
-    pid, mat = task["pixel_ids"], task["material"]
-    pos, n, t, b, ng, view = (np.asarray(task[k], np.float64)
-                              for k in ("position", "normal", "tangent", "bitangent",
-                                        "geo_normal", "view"))
-    n = n / np.linalg.norm(n, axis=1, keepdims=True)
-    t = t - np.einsum("ij,ij->i", t, n)[:, None] * n  # CONVENTIONS frame: t ⟂ n, b = n × t
-    t = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-30)
-    b = np.cross(n, t)
-    npx = len(pid)
-    spp, ck = opts["spp"], opts["checkpoints"]
-    strategy, mis, seed = opts["strategy"], opts["mis"], opts["seed"]
+def _shade_hits(sh, rows, u, strategy, mis):
+    """Estimates (M, 3) of the hit rows: exact delta lights + one sample per technique."""
+    brdfs, tracer, env, lights = sh["brdfs"], sh["tracer"], sh["env"], sh["lights"]
+    pos, n, t, b, ng, view, obj, tex = (rows[k] for k in ("pos", "n", "t", "b", "ng", "view",
+                                                          "obj", "tex"))
     o_loc = np.stack([np.einsum("ij,ij->i", view, t), np.einsum("ij,ij->i", view, b),
                       np.einsum("ij,ij->i", view, n)], -1)
     org = _offset(pos, ng)
-    tex = task.get("tex")  # (kd scale (P,3), ks scale (P,3)) or None
+    techniques = {"mis": ("brdf", "env"), "brdf": ("brdf",), "env": ("env",)}[strategy]
+    out = np.zeros((len(pos), 3))
+    for m in np.unique(obj):
+        sel = np.flatnonzero(obj == m)
+        tx = None if tex is None else (tex[0][sel], tex[1][sel])
+        args = (o_loc[sel], t[sel], b[sel], n[sel], ng[sel])
+        acc = _direct_lights(brdfs[m], tracer, lights, *args, pos[sel], org[sel], tx)
+        for k, which in enumerate(techniques):
+            acc += _technique(brdfs[m], tracer, env, *args, org[sel], tx, u[sel, 2 * k],
+                              u[sel, 2 * k + 1], which, strategy, mis)
+        out[sel] = acc
+    return out
+
+
+def shade_tile(task) -> dict:
+    """Render one tile (module-level for map_chunks): per pixel and sample a camera ray through
+    the pixel filter's sub-pixel position, its first hit shaded (or the background where it
+    misses); returns the per-pixel sums, sums of squares, hit counts and checkpoint sums."""
+    from sgpipe.reference.pixel_filter import subpixel_positions
+    from sgpipe.reference.surface import primary_rows
+    sh = _shared(task)
+    env, opts, filt = sh["env"], sh["opts"], sh["filter"]
+    pid = task["pixel_ids"]
+    rr, cc = task["rows"].astype(np.float64), task["cols"].astype(np.float64)
+    npx = len(pid)
+    spp, ck = opts["spp"], opts["checkpoints"]
+    strategy, mis, seed = opts["strategy"], opts["mis"], opts["seed"]
     s_sum = np.zeros((npx, 3))
     s_sq = np.zeros((npx, 3))
-    direct = np.zeros((npx, 3))
+    hits = np.zeros(npx, np.int64)
     ck_sums = []
-    for m in np.unique(mat):
-        sel = np.flatnonzero(mat == m)
-        direct[sel] = _direct_lights(brdfs[m], tracer, lights, o_loc[sel], t[sel], b[sel],
-                                     n[sel], ng[sel], pos[sel], org[sel],
-                                     None if tex is None else (tex[0][sel], tex[1][sel]))
-    techniques = {"mis": ("brdf", "env"), "brdf": ("brdf",), "env": ("env",)}[strategy]
+    centre = None
+    if filt.type == "center":  # every sample takes the same ray: trace it once
+        centre = primary_rows(sh["tracer"], sh["camera"], cc + 0.5, rr + 0.5, sh["maps"])
     per_pass = max(1, _ROWS_PER_PASS // max(npx, 1))
     done = 0
     bounds = sorted(set(ck) | {spp})
     while done < spp:
         nxt = min(done + per_pass, min(c for c in bounds if c > done))
         ns = nxt - done
-        u = jit.uniforms(np.uint64(seed), pid.astype(np.int64), done, ns, 4)
-        est = np.zeros((npx, ns, 3))
-        for m in np.unique(mat):
-            sel = np.flatnonzero(mat == m)
-            rep = lambda a: np.repeat(a[sel], ns, axis=0)  # noqa: E731
-            args = (rep(o_loc), rep(t), rep(b), rep(n), rep(ng), rep(org),
-                    None if tex is None else (rep(tex[0]), rep(tex[1])))
-            acc = np.zeros((len(sel) * ns, 3))
-            for k, which in enumerate(techniques):
-                acc += _technique(brdfs[m], tracer, env, *args,
-                                  u[sel, :, 2 * k].ravel(), u[sel, :, 2 * k + 1].ravel(),
-                                  which, strategy, mis)
-            est[sel] = acc.reshape(len(sel), ns, 3)
-        jit.accumulate(est.reshape(-1, 3), npx, ns, s_sum, s_sq)
+        if centre is None:
+            xy = subpixel_positions(filt, seed, pid, done, ns)          # (P, ns, 2)
+            prim = primary_rows(sh["tracer"], sh["camera"], (cc[:, None] + xy[..., 0]).ravel(),
+                                (rr[:, None] + xy[..., 1]).ravel(), sh["maps"])
+            src = np.arange(npx * ns)
+        else:
+            prim, src = centre, np.repeat(np.arange(npx), ns)
+        slot = np.full(len(prim["hit"]), -1, np.int64)                  # ray → hit row
+        slot[prim["idx"]] = np.arange(len(prim["idx"]))
+        h = slot[src]
+        live = np.flatnonzero(h >= 0)
+        est = np.zeros((npx * ns, 3))
+        miss = np.flatnonzero(h < 0)
+        if miss.size and opts["background"] == "env":
+            est[miss] = env.lookup(prim["dirs"][src[miss]])[0]
+        if live.size:
+            take = {k: (None if prim[k] is None else
+                        tuple(a[h[live]] for a in prim[k]) if k == "tex" else prim[k][h[live]])
+                    for k in ("pos", "n", "t", "b", "ng", "view", "obj", "tex")}
+            u = jit.uniforms(np.uint64(seed), pid.astype(np.int64), done, ns, 4).reshape(-1, 4)
+            est[live] = _shade_hits(sh, take, u[live], strategy, mis)
+        hits += (h >= 0).reshape(npx, ns).sum(axis=1)
+        jit.accumulate(est, npx, ns, s_sum, s_sq)
         done = nxt
         if done in ck:
             ck_sums.append(s_sum.copy())
-    return {"sum": s_sum, "sq": s_sq, "direct": direct, "checkpoints": ck_sums}
+    return {"sum": s_sum, "sq": s_sq, "hits": hits, "checkpoints": ck_sums}

@@ -39,6 +39,12 @@ def lights_of(rs) -> list[Light]:
     return out
 
 
+def read_texture(path, key) -> np.ndarray:
+    """A texture or environment image (H, W, 3) float32 as the methods read it: EXR/HDR linear,
+    8/16-bit images as values in [0, 1] (no sRGB decoding), one channel repeated to three."""
+    return _image(path, key)
+
+
 def _image(path, key) -> np.ndarray:
     img = read_exr(path, channels=(1, 3, 4), key=key) if str(path).lower().endswith(
         (".exr", ".hdr")) else _read_ldr(path, key)

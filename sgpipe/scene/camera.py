@@ -4,6 +4,7 @@
     origins, dirs = cam.rays()                        # (H, W, 3) float32 each, dirs unit length
     origins, dirs = cam.rays(offset=(0.25, 0.75))     # a sub-pixel position (supersampling)
     origins, dirs = cam.rays(jitter=rng)              # one uniform random position per pixel
+    origins, dirs = cam.rays_at(px, py)               # continuous positions (column, row units)
 
 Camera basis: forward f = normalize(target − eye), right r = normalize(f × up), true up
 u = r × f. Pixel (i, j) with sub-pixel position (ox, oy) ∈ [0,1)² (0.5, 0.5 = centre) looks
@@ -85,8 +86,15 @@ class Camera:
             ox, oy = (0.5, 0.5) if offset is None else offset
         j = np.arange(w, dtype=float)[None, :]
         i = np.arange(h, dtype=float)[:, None]
-        x = 2.0 * (j + ox) / w - 1.0
-        y = 1.0 - 2.0 * (i + oy) / h
+        return self.rays_at(*np.broadcast_arrays(j + ox, i + oy))
+
+    def rays_at(self, px, py) -> tuple[np.ndarray, np.ndarray]:
+        """Rays through continuous image-plane positions: px = column + ox, py = row + oy
+        (any equal shapes S; pixel (i, j)'s centre is (j + ½, i + ½)) → origins and unit
+        directions S×3, float32 (the same bits as `rays` at the same positions)."""
+        h, w = self.height, self.width
+        x = 2.0 * np.asarray(px, float) / w - 1.0
+        y = 1.0 - 2.0 * np.asarray(py, float) / h
         x, y = np.broadcast_arrays(x, y)
         th = math.tan(math.radians(self.fov_deg) * 0.5)
         r, u, f = self.basis()

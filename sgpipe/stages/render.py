@@ -123,13 +123,12 @@ def run(cfg, out_dir: Path, *, force: bool = False):
 
 
 def reference_from_config(cfg, *, objects=None, env=None):
-    """The one config → `reference` path (sgpipe.reference.ReferenceResult): camera, scene
-    objects, environment × 2^environment_exposure, materials, lights, spp, seed, workers and
-    background of a validated config. `objects` / `env` default to what the config names
-    (meshes through their loader, the lat-long image); the stage passes its own (visibility
-    geometry, the image it already read). What the OpenCL methods honour beyond these — normal
-    maps and material textures — would enter here (render_reference_result's gbuffer= and
-    kd_scale= / ks_scale=); the reference does not take them yet."""
+    """The one config → `reference` path (sgpipe.reference.ReferenceResult): camera, pixel
+    filter, scene objects with their normal maps and their materials' kd / ks textures,
+    environment × 2^environment_exposure, materials, lights, spp, seed, workers and background
+    of a validated config. `objects` / `env` default to what the config names (meshes through
+    their loader, the lat-long image); the stage passes its own (visibility geometry, the image
+    it already read)."""
     from sgpipe.reference import render_reference_result
     from sgpipe.render.scene import load_trace_objects
     from sgpipe.render.setup import environment_latlong, material_brdf, object_material_specs
@@ -145,7 +144,32 @@ def reference_from_config(cfg, *, objects=None, env=None):
         environment_latlong(cfg) if env is None else env,
         materials=[brdfs[s.name] for s in specs], lights=rs.lights,
         spp=rs.spp, seed=cfg.seed, workers=cfg.workers or None,
-        background="env" if rs.background else "black")
+        background="env" if rs.background else "black",
+        pixel_filter=to_plain(rs.pixel_filter), maps=object_maps(cfg))
+
+
+def object_maps(cfg) -> list:
+    """Per scene object the images the OpenCL methods read for it (sgpipe.reference.ObjectMaps):
+    its normal map and its material's kd / ks textures (render.material_textures)."""
+    from sgpipe.reference import ObjectMaps
+    from sgpipe.render.setup import read_texture
+    tex = {t.material: t for t in cfg.render.material_textures}
+    cache: dict = {}
+
+    def image(path, key):
+        if path not in cache:
+            cache[path] = read_texture(path, key)
+        return cache[path]
+
+    out = []
+    for k, o in enumerate(cfg.scene.objects if cfg.scene is not None else []):
+        t = tex.get(o.material)
+        out.append(ObjectMaps(
+            normal_map=None if o.normal_map is None else image(o.normal_map,
+                                                               f"scene.objects.{k}.normal_map"),
+            kd_map=image(t.kd_map, "render.material_textures.kd_map") if t and t.kd_map else None,
+            ks_map=image(t.ks_map, "render.material_textures.ks_map") if t and t.ks_map else None))
+    return out
 
 
 def _reference(cfg, bundle, run) -> np.ndarray:

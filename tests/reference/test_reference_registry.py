@@ -22,30 +22,32 @@ def test_registry_lambert_furnace_with_sphere_mesh_occluder_free():
                                   read_exr(DATA / "white.exr"),
                                   materials=[("lambert", {"kd": kd})], spp=32, seed=1,
                                   workers=1)
-    h = res.hit
+    h = res.coverage == 1          # pixels inside the silhouette (box filter)
     d = res.image[h].astype(np.float64) - kd
     se = np.sqrt(np.sum(res.stderr[h].astype(np.float64) ** 2, 0)) / h.sum()
     assert np.all(np.abs(d.mean(0)) < 5 * se + 1e-6), (d.mean(0), se)
 
 
-def test_texture_scales_multiply_diffuse_and_specular():
-    """kd_scale / ks_scale (SVBRDF textures): a Lambert furnace with kd_scale s gives s·kd;
-    a purely specular material is unchanged by kd_scale and scaled exactly by ks_scale."""
+def test_texture_maps_multiply_diffuse_and_specular():
+    """kd / ks maps (ObjectMaps, SVBRDF): a Lambert furnace with a constant kd map s gives s·kd;
+    a purely specular material is unchanged by a kd map and scaled exactly by a ks map."""
     cam = Camera(eye=(0, 0, 4), target=(0, 0, 0), fov_deg=32, width=12, height=12)
     obj = [TraceObject.sphere("s", (0, 0, 0), 1.0)]
     env = read_exr(DATA / "studio.exr")
-    s = np.zeros((12, 12, 3))
-    s[:, :6] = 0.5
-    s[:, 6:] = 0.25
+    s = np.array([0.5, 0.25, 0.75])
+    tex = np.broadcast_to(s, (4, 8, 3))
     lam = render_reference_result(obj, cam, np.ones((8, 16, 3)), materials=[("lambert",
                                   {"kd": 0.8})], spp=8, seed=0, workers=1, strategy="brdf",
-                                  kd_scale=s)
-    np.testing.assert_allclose(lam.image[lam.hit], (0.8 * s)[lam.hit], rtol=1e-5)
+                                  maps=[{"kd_map": tex}])
+    cov = lam.coverage[..., None]
+    np.testing.assert_allclose(lam.image, cov * 0.8 * s + (1 - cov), rtol=1e-5)
     mat = [("ward", {"alpha": 0.1, "kd": 0.0, "ks": 0.7})]
-    base = render_reference_result(obj, cam, env, materials=mat, spp=8, seed=0, workers=1)
-    ks = render_reference_result(obj, cam, env, materials=mat, spp=8, seed=0, workers=1,
-                                 kd_scale=s, ks_scale=s)
-    np.testing.assert_allclose(ks.image[ks.hit], (base.image * s)[ks.hit], rtol=1e-5)
+    kw = dict(materials=mat, spp=8, seed=0, workers=1, background="black")
+    base = render_reference_result(obj, cam, env, **kw)
+    kd = render_reference_result(obj, cam, env, maps=[{"kd_map": tex}], **kw)
+    ks = render_reference_result(obj, cam, env, maps=[{"ks_map": tex}], **kw)
+    np.testing.assert_allclose(kd.image, base.image, rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(ks.image, base.image * s, rtol=1e-5, atol=1e-7)
 
 
 @pytest.mark.parametrize("model,params", [

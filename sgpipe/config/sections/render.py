@@ -58,6 +58,21 @@ class MaterialTextureSpec:
 
 
 @dataclass
+class PixelFilterSpec:
+    """Reconstruction filter of the `reference` over the image plane (sgpipe.reference.
+    pixel_filter): separable, its samples drawn from the filter (stratified R2 pattern)."""
+
+    type: Literal["box", "tent", "gaussian", "center"] = doc(
+        "box: uniform over the pixel (radius ½); tent: 1 − |x|/r per axis; gaussian: "
+        "e^{−x²/2σ²} − e^{−r²/2σ²} per axis (Mitsuba 3's); center: one ray through the pixel "
+        "centre, no integration over the pixel (the real-time methods' single ray).", "box")
+    radius: float | None = doc("Half-width of the support in pixels; null: the type's default "
+                               "(box 0.5, tent 1, gaussian 4·stddev).", None, gt=0, le=16)
+    stddev: float = doc("Standard deviation σ of the gaussian filter (pixels).", 0.5, gt=0,
+                        le=8)
+
+
+@dataclass
 class RenderSection:
     """What to render and how to compare it."""
 
@@ -73,6 +88,14 @@ class RenderSection:
                                   ge=-30, le=30)
     background: bool = doc("Show the environment where primary rays miss (else black).", True)
     spp: int = doc("Samples per pixel of the `reference` method.", 256, ge=1)
+    pixel_filter: PixelFilterSpec = doc(
+        "Pixel filter of the `reference`: each sample's camera ray passes through a sub-pixel "
+        "position drawn from it, so silhouettes and directly seen lamps are integrated over "
+        "the pixel.", default_factory=PixelFilterSpec)
+    supersample: int = doc("Real-time methods (sg, gmm, fis): N → N×N G-buffers at the "
+                           "centres of an N×N grid of sub-pixel cells, shaded and averaged "
+                           "(a box filter, comparable with the reference's default); 1 = one "
+                           "ray through each pixel centre.", 1, ge=1, le=16)
     fis_samples: int = doc("Samples per pixel N of `fis` (Töral19 uses about 40).", 40, ge=1,
                            le=4096)
     gmm_taps: int = doc("gmm: trilinear MIP taps per lobe spread over the lobe's vMF (1 = paper "

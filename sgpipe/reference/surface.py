@@ -1,0 +1,122 @@
+"""Per-sample primary hits of the `reference` method and the surface features the OpenCL methods
+honour (contract: sgpipe.reference): tangent-space normal maps and kd / ks texture multipliers.
+
+    maps = [ObjectMaps(normal_map=img, kd_map=None, ks_map=tex), ObjectMaps()]   # per object
+    rows = primary_rows(tracer, camera, px, py, maps)   # px, py: image-plane positions (N,)
+
+The conventions are those of the kernels' `pixel_init` (shading.h) and docs/CONVENTIONS.md: the
+frame (n, t, b = n × t) of the G-buffer, a normal map's texel c ↦ n' = normalize(2c − 1) with
+n'_z ≥ 10⁻³ in that frame, the shading frame rotated by the shortest arc taking +z to n' (the
+kernels' quaternion q), visibility kept in the geometric frame; textures bilinear, OBJ uv
+(v = 0 bottom row), repeat addressing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sgpipe.reference import _sampling_jit as jit
+
+
+@dataclass
+class ObjectMaps:
+    """Optional per-object images (H, W, C) float: normal map, kd and ks multipliers."""
+
+    normal_map: np.ndarray | None = None
+    kd_map: np.ndarray | None = None
+    ks_map: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, m) -> "ObjectMaps":
+        if m is None:
+            return cls()
+        if isinstance(m, ObjectMaps):
+            return m
+        return cls(**{k: m.get(k) for k in ("normal_map", "kd_map", "ks_map")})
+
+    def __post_init__(self):
+        for k in ("normal_map", "kd_map", "ks_map"):
+            a = getattr(self, k)
+            if a is None:
+                continue
+            a = np.asarray(a, np.float64)
+            if a.ndim == 2:
+                a = a[:, :, None]
+            if a.ndim != 3 or a.shape[0] < 1 or a.shape[1] < 1:
+                raise ValueError(f"{k}: an (H, W, C) image expected, got {a.shape}")
+            if a.shape[2] < 3:     # grey textures: one channel for all three (as Textures.pack)
+                a = np.repeat(a[:, :, :1], 3, axis=2)
+            setattr(self, k, np.ascontiguousarray(a[:, :, :3]))
+
+    @property
+    def empty(self) -> bool:
+        return self.normal_map is None and self.kd_map is None and self.ks_map is None
+
+
+def _unit(v):
+    return v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-30)
+
+
+def _rotate_from_z(nl, v):
+    """Rodrigues rotation of local vectors v (N, 3) by the shortest arc taking +z to unit nl."""
+    x = np.stack([-nl[:, 1], nl[:, 0], np.zeros(len(nl))], -1)     # z × n'
+    c = nl[:, 2]
+    xv = np.einsum("ij,ij->i", x, v)
+    return v * c[:, None] + np.cross(x, v) + x * (xv / np.maximum(1.0 + c, 1e-9))[:, None]
+
+
+def normal_mapped_frame(t, b, n, texel):
+    """Frames (t', b', n') of the normal map's texels (N, 3) in the frames (t, b, n)."""
+    nl = 2.0 * np.asarray(texel, np.float64) - 1.0
+    nl[:, 2] = np.maximum(nl[:, 2], 1e-3)
+    nl = _unit(nl)
+    ex = np.zeros_like(nl)
+    ex[:, 0] = 1.0
+    ey = np.zeros_like(nl)
+    ey[:, 1] = 1.0
+    world = lambda v: v[:, :1] * t + v[:, 1:2] * b + v[:, 2:3] * n  # noqa: E731
+    return (_unit(world(_rotate_from_z(nl, ex))), _unit(world(_rotate_from_z(nl, ey))),
+            _unit(world(nl)))
+
+
+def primary_rows(tracer, camera, px, py, maps=None) -> dict:
+    """Trace rays through image-plane positions (px, py) (N,) → per row: `hit`, `dirs`, and for
+    the hit rows (index `idx`) the shading inputs `pos`, `t`, `b`, `n` (normal-mapped frame),
+    `ng`, `view`, `obj` and `tex` ((kd scale, ks scale) (M, 3) each, or None)."""
+    o, d = camera.rays_at(px, py)
+    d64 = np.asarray(d, np.float64)
+    if tracer is None:
+        return {"hit": np.zeros(len(d64), bool), "dirs": d64, "idx": np.zeros(0, np.int64)}
+    gb = tracer.trace(o, d)
+    idx = np.flatnonzero(gb.hit)
+    g = lambda a: np.asarray(a[idx], np.float64)  # noqa: E731
+    pos, n, t, ng, view = (g(gb.position), g(gb.normal), g(gb.tangent), g(gb.geo_normal),
+                           g(gb.view))
+    obj = gb.object_id[idx].astype(np.int64)
+    # CONVENTIONS frame: t ⟂ n, b = n × t (the G-buffer's float32 values re-orthonormalised)
+    n = _unit(n)
+    t = _unit(t - np.einsum("ij,ij->i", t, n)[:, None] * n)
+    b = np.cross(n, t)
+    tex = None
+    maps = [ObjectMaps.of(m) for m in (maps or ())]
+    if any(not m.empty for m in maps):
+        uv = np.asarray(gb.uv[idx], np.float64)
+        kd = np.ones((len(idx), 3))
+        ks = np.ones((len(idx), 3))
+        for k, m in enumerate(maps):
+            sel = np.flatnonzero(obj == k)
+            if m.empty or sel.size == 0:
+                continue
+            if m.kd_map is not None:
+                kd[sel] = jit.tex_bilinear(m.kd_map, uv[sel])
+            if m.ks_map is not None:
+                ks[sel] = jit.tex_bilinear(m.ks_map, uv[sel])
+            if m.normal_map is not None:
+                texel = jit.tex_bilinear(m.normal_map, uv[sel])
+                t[sel], b[sel], n[sel] = normal_mapped_frame(t[sel], b[sel], n[sel], texel)
+        if any(m.kd_map is not None or m.ks_map is not None for m in maps):
+            tex = (kd, ks)
+    return {"hit": gb.hit, "dirs": d64, "idx": idx, "pos": pos, "t": t, "b": b, "n": n,
+            "ng": ng, "view": view, "obj": obj, "tex": tex}
