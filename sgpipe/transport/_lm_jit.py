@@ -1,0 +1,315 @@
+"""Numba kernels of the Green06 eq 6 objective for one vertex (all 92 views at once):
+residuals, analytic Jacobian blocks, the Gauss–Newton matrix-vector product and its PCG solve.
+
+Gaussian (Green06 eq 4, isotropic, peak 1): G(ω; μ, σ) = exp((ω·μ − 1)/σ²) ≈ exp(−θ²/(2σ²)),
+so σ is the angular standard deviation (radians); it is the SG of CONVENTIONS with λ = 1/σ².
+
+Parameters per view v and Gaussian k (layout p = 6k + …): a tangent step (δ1, δ2) of the mean
+μ_vk on the sphere (μ' = exp_μ(δ1 t1 + δ2 t2), so every step stays a unit vector), s = ln σ, and
+the RGB weight w. The objective is a sum of squares F = ‖r‖² with
+  data (eq 7):  r = √(α Ω_j / E) (Σ_k w_kc G(ω_j; μ_vk, σ_vk) − T_vjc)   (active views only)
+  means (eq 8): r = √β (μ̄_vk − μ_vk),  μ̄ = mean over the neighbouring views
+  sigma (eq 9): r = √γ (σ̄_vk − σ_vk)
+  spatial (eq 10): r = √δ max(−d, 0)^{3/2}, d = ⟨μ_vk1 − μ_vk2, ν_k1 − ν_k2⟩ for every
+                   processed neighbour vertex's means ν (so r² is eq 10's max(−d, 0)³).
+g = Jᵀr and H = JᵀJ (the gradient of F is 2g).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+P = 6             # parameters per view per Gaussian
+SKIP = 40.0       # (1 − ω·μ)/σ² beyond which G < e^-40 is dropped where T = 0 too
+
+
+@njit(cache=True)
+def tangent_bases(mu):
+    """(V, K, 2, 3) orthonormal tangents (t1, t2) at every mean; t1 ⟂ the axis least along μ."""
+    V, K = mu.shape[0], mu.shape[1]
+    tb = np.empty((V, K, 2, 3))
+    for v in range(V):
+        for k in range(K):
+            m = mu[v, k]
+            ax = 0
+            if abs(m[1]) < abs(m[ax]):
+                ax = 1
+            if abs(m[2]) < abs(m[ax]):
+                ax = 2
+            e = np.zeros(3)
+            e[ax] = 1.0
+            t1 = np.array([m[1] * e[2] - m[2] * e[1], m[2] * e[0] - m[0] * e[2],
+                           m[0] * e[1] - m[1] * e[0]])
+            t1 /= np.sqrt(t1 @ t1)
+            t2 = np.array([m[1] * t1[2] - m[2] * t1[1], m[2] * t1[0] - m[0] * t1[2],
+                           m[0] * t1[1] - m[1] * t1[0]])
+            tb[v, k, 0] = t1
+            tb[v, k, 1] = t2
+    return tb
+
+
+@njit(cache=True)
+def data_term(T, active, dirs, a, mu, s, w, tb, H, g, jac):
+    """Σ of the squared data residuals; with jac, adds their JᵀJ blocks to H (V, 6K, 6K) and
+    Jᵀr to g (V, 6K). `a` (M,) = α Ω_j / E.
+
+    The weights enter linearly and w_kc is constant over a view, so JᵀJ factors into per-view
+    sums over texels — A_kl = Σ a u_k u_lᵀ, B_kl = Σ a g_l u_k, C_kl = Σ a g_k g_l with
+    u_k = ∂G_k/∂(δ1, δ2, s) — and H_{u_k u_l} = (w_k·w_l) A_kl, H_{u_k w_lc} = w_kc B_kl,
+    H_{w_kc w_lc} = C_kl: 16 multiply-adds per texel instead of the dense 3·(6K)²/2."""
+    V, M, K = T.shape[0], T.shape[1], mu.shape[1]
+    F = 0.0
+    gk = np.empty(K)
+    u = np.empty((K, 3))
+    res = np.empty(3)
+    A = np.empty((K, K, 3, 3))
+    B = np.empty((K, K, 3))
+    C = np.empty((K, K))
+    for v in range(V):
+        if not active[v]:
+            continue
+        inv2 = np.exp(-2.0 * s[v])          # 1/σ² per Gaussian
+        if jac:
+            A[:] = 0.0
+            B[:] = 0.0
+            C[:] = 0.0
+        for j in range(M):
+            far = True
+            for k in range(K):
+                c = dirs[j, 0] * mu[v, k, 0] + dirs[j, 1] * mu[v, k, 1] + dirs[j, 2] * mu[v, k, 2]
+                x = (c - 1.0) * inv2[k]
+                if x > -SKIP:
+                    far = False
+                gk[k] = np.exp(x)
+                if jac:
+                    u[k, 0] = gk[k] * inv2[k] * (dirs[j, 0] * tb[v, k, 0, 0]
+                                                 + dirs[j, 1] * tb[v, k, 0, 1]
+                                                 + dirs[j, 2] * tb[v, k, 0, 2])
+                    u[k, 1] = gk[k] * inv2[k] * (dirs[j, 0] * tb[v, k, 1, 0]
+                                                 + dirs[j, 1] * tb[v, k, 1, 1]
+                                                 + dirs[j, 2] * tb[v, k, 1, 2])
+                    u[k, 2] = -2.0 * x * gk[k]
+            if far and T[v, j, 0] == 0.0 and T[v, j, 1] == 0.0 and T[v, j, 2] == 0.0:
+                continue
+            aj = a[j]
+            for c3 in range(3):
+                acc = -T[v, j, c3]
+                for k in range(K):
+                    acc += w[v, k, c3] * gk[k]
+                res[c3] = acc
+                F += aj * acc * acc
+            if not jac:
+                continue
+            for k in range(K):
+                wr = w[v, k, 0] * res[0] + w[v, k, 1] * res[1] + w[v, k, 2] * res[2]
+                for p in range(3):
+                    g[v, P * k + p] += aj * u[k, p] * wr
+                for c3 in range(3):
+                    g[v, P * k + 3 + c3] += aj * gk[k] * res[c3]
+                for l in range(K):
+                    C[k, l] += aj * gk[k] * gk[l]
+                    for p in range(3):
+                        B[k, l, p] += aj * gk[l] * u[k, p]
+                        for q in range(3):
+                            A[k, l, p, q] += aj * u[k, p] * u[l, q]
+        if not jac:
+            continue
+        for k in range(K):
+            for l in range(K):
+                ww = w[v, k, 0] * w[v, l, 0] + w[v, k, 1] * w[v, l, 1] + w[v, k, 2] * w[v, l, 2]
+                for p in range(3):
+                    for q in range(3):
+                        H[v, P * k + p, P * l + q] += ww * A[k, l, p, q]
+                    for c3 in range(3):
+                        # H[u_k, w_lc] = Σ a (w_kc u_k) g_l
+                        H[v, P * k + p, P * l + 3 + c3] += w[v, k, c3] * B[k, l, p]
+                        H[v, P * l + 3 + c3, P * k + p] += w[v, k, c3] * B[k, l, p]
+                for c3 in range(3):
+                    H[v, P * k + 3 + c3, P * l + 3 + c3] += C[k, l]
+    return F
+
+
+@njit(cache=True)
+def coherence_term(mu, s, nb, cnt, tb, beta, gamma, g, jac):
+    """Σ of the squared mean (eq 8) and σ (eq 9) coherence residuals over all views; with jac,
+    adds Jᵀr to g. (Their JᵀJ is applied matrix-free by `apply_h`.)"""
+    V, K = mu.shape[0], mu.shape[1]
+    F = 0.0
+    for v in range(V):
+        R = cnt[v]
+        for k in range(K):
+            m = -mu[v, k].copy()
+            z = -np.exp(s[v, k])
+            for i in range(R):
+                u = nb[v, i]
+                m += mu[u, k] / R
+                z += np.exp(s[u, k]) / R
+            F += beta * (m @ m) + gamma * z * z
+            if not jac:
+                continue
+            for a2 in range(2):
+                g[v, P * k + a2] -= beta * (tb[v, k, a2] @ m)
+            g[v, P * k + 2] -= gamma * np.exp(s[v, k]) * z
+            for i in range(R):
+                u = nb[v, i]
+                for a2 in range(2):
+                    g[u, P * k + a2] += beta / R * (tb[u, k, a2] @ m)
+                g[u, P * k + 2] += gamma / R * np.exp(s[u, k]) * z
+    return F
+
+
+@njit(cache=True)
+def spatial_term(mu, tb, nbmu, delta, H, g, jac):
+    """Σ of eq 10's max(−d, 0)³ over views, Gaussian pairs k1 < k2 and processed neighbour
+    vertices (nbmu (S, V, K, 3)); with jac adds the JᵀJ blocks and Jᵀr."""
+    V, K, S = mu.shape[0], mu.shape[1], nbmu.shape[0]
+    F = 0.0
+    if K < 2 or delta == 0.0:
+        return F
+    sd = np.sqrt(delta)
+    for v in range(V):
+        for k1 in range(K - 1):
+            for k2 in range(k1 + 1, K):
+                for n in range(S):
+                    e = nbmu[n, v, k1] - nbmu[n, v, k2]
+                    d = (mu[v, k1] - mu[v, k2]) @ e
+                    if d >= 0.0:
+                        continue
+                    r = sd * (-d) ** 1.5
+                    F += r * r
+                    if not jac:
+                        continue
+                    dr = -1.5 * sd * np.sqrt(-d)          # ∂r/∂d
+                    Jr = np.zeros(P * K)
+                    for a2 in range(2):
+                        Jr[P * k1 + a2] = dr * (tb[v, k1, a2] @ e)
+                        Jr[P * k2 + a2] = -dr * (tb[v, k2, a2] @ e)
+                    for p in range(P * K):
+                        if Jr[p] == 0.0:
+                            continue
+                        g[v, p] += Jr[p] * r
+                        for q in range(P * K):
+                            H[v, p, q] += Jr[p] * Jr[q]
+    return F
+
+
+@njit(cache=True)
+def apply_h(x, Hd, nb, cnt, tb, sig, beta, gamma, lam, D, free, out):
+    """out = (JᵀJ + λ diag(D)) x for the data/spatial blocks Hd plus the coherence terms."""
+    V, n = x.shape[0], x.shape[1]
+    K = n // P
+    for v in range(V):
+        for p in range(n):
+            acc = lam * D[v, p] * x[v, p]
+            for q in range(n):
+                acc += Hd[v, p, q] * x[v, q]
+            out[v, p] = acc
+    for v in range(V):
+        R = cnt[v]
+        for k in range(K):
+            y = -(x[v, P * k] * tb[v, k, 0] + x[v, P * k + 1] * tb[v, k, 1])
+            z = -sig[v, k] * x[v, P * k + 2]
+            for i in range(R):
+                u = nb[v, i]
+                y += (x[u, P * k] * tb[u, k, 0] + x[u, P * k + 1] * tb[u, k, 1]) / R
+                z += sig[u, k] * x[u, P * k + 2] / R
+            for a2 in range(2):
+                out[v, P * k + a2] -= beta * (tb[v, k, a2] @ y)
+            out[v, P * k + 2] -= gamma * sig[v, k] * z
+            for i in range(R):
+                u = nb[v, i]
+                for a2 in range(2):
+                    out[u, P * k + a2] += beta / R * (tb[u, k, a2] @ y)
+                out[u, P * k + 2] += gamma / R * sig[u, k] * z
+    for v in range(V):
+        for p in range(n):
+            if not free[v, p]:
+                out[v, p] = 0.0
+
+
+@njit(cache=True)
+def self_diagonal(nb, cnt, sig, beta, gamma, K):
+    """(V, 6K) diagonal of the coherence terms' JᵀJ (tangent bases are orthonormal)."""
+    V = nb.shape[0]
+    sw = np.ones(V)
+    for v in range(V):
+        for i in range(cnt[v]):
+            sw[nb[v, i]] += 1.0 / (cnt[v] * cnt[v])
+    out = np.zeros((V, P * K))
+    for v in range(V):
+        for k in range(K):
+            out[v, P * k] = beta * sw[v]
+            out[v, P * k + 1] = beta * sw[v]
+            out[v, P * k + 2] = gamma * sig[v, k] ** 2 * sw[v]
+    return out
+
+
+@njit(cache=True)
+def solve_step(Hd, g, nb, cnt, tb, sig, beta, gamma, lam, D, selfd, free, maxit, rtol):
+    """Δ solving (JᵀJ + λ diag D) Δ = −g by conjugate gradients, preconditioned with the
+    inverse of every view's diagonal block (Hd + coherence diagonal + λD)."""
+    V, n = g.shape[0], g.shape[1]
+    Pinv = np.zeros((V, n, n))
+    for v in range(V):
+        B = Hd[v].copy()
+        for p in range(n):
+            B[p, p] += selfd[v, p] + lam * D[v, p]
+        for p in range(n):
+            if not free[v, p]:
+                for q in range(n):
+                    B[p, q] = 0.0
+                    B[q, p] = 0.0
+                B[p, p] = 1.0
+        Pinv[v] = np.linalg.inv(B)
+    x = np.zeros((V, n))
+    r = -g.copy()
+    for v in range(V):
+        for p in range(n):
+            if not free[v, p]:
+                r[v, p] = 0.0
+    z = np.empty((V, n))
+    for v in range(V):
+        z[v] = Pinv[v] @ r[v]
+    d = z.copy()
+    rz = np.sum(r * z)
+    r0 = np.sqrt(np.sum(r * r))
+    Ad = np.empty((V, n))
+    for _ in range(maxit):
+        if np.sqrt(np.sum(r * r)) <= rtol * r0 or r0 == 0.0:
+            break
+        apply_h(d, Hd, nb, cnt, tb, sig, beta, gamma, lam, D, free, Ad)
+        dAd = np.sum(d * Ad)
+        if dAd <= 0.0:
+            break
+        al = rz / dAd
+        x += al * d
+        r -= al * Ad
+        for v in range(V):
+            z[v] = Pinv[v] @ r[v]
+        rz_new = np.sum(r * z)
+        d = z + (rz_new / rz) * d
+        rz = rz_new
+    return x
+
+
+@njit(cache=True)
+def retract(mu, s, w, tb, x, s_lo, s_hi):
+    """The candidate parameters after step x: means moved along the sphere's geodesics."""
+    V, K = mu.shape[0], mu.shape[1]
+    mu2 = np.empty_like(mu)
+    s2 = np.empty_like(s)
+    w2 = np.empty_like(w)
+    for v in range(V):
+        for k in range(K):
+            d = x[v, P * k] * tb[v, k, 0] + x[v, P * k + 1] * tb[v, k, 1]
+            th = np.sqrt(d @ d)
+            if th > 1e-300:
+                m = np.cos(th) * mu[v, k] + np.sin(th) / th * d
+            else:
+                m = mu[v, k].copy()
+            mu2[v, k] = m / np.sqrt(m @ m)
+            s2[v, k] = min(max(s[v, k] + x[v, P * k + 2], s_lo), s_hi)
+            for c in range(3):
+                w2[v, k, c] = w[v, k, c] + x[v, P * k + 3 + c]
+    return mu2, s2, w2

@@ -1,0 +1,187 @@
+"""Green06 §4.2: fit N Gaussians per view to one vertex's transport over all 92 views at once,
+minimising eq 6 (α D + β M + γ V + δ S) by Levenberg–Marquardt with analytic Jacobians
+(`_lm_jit`): the normal equations are solved matrix-free by block-preconditioned conjugate
+gradients, because the coherence terms couple every view to its neighbours.
+
+Views below the vertex's horizon carry no data and a weight fixed at zero; their means and
+σ are filled in smoothly by the coherence terms alone (the paper's horizon fill-in).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sgpipe.transport import _lm_jit as K_
+from sgpipe.transport.views import view_set
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """Eq 6's weights and the solver's limits."""
+
+    gaussians: int = 1
+    alpha: float = 1.0          # data term D (normalised by the vertex's mean ‖T‖²)
+    beta: float = 0.05          # mean coherence M
+    gamma: float = 0.05         # σ coherence V
+    delta: float = 1.0          # spatial term S (only with ≥ 2 Gaussians)
+    max_iter: int = 40
+    ftol: float = 1e-6          # stop when an accepted step lowers F by less than this fraction
+    sigma_min: float = 0.005    # radians
+    sigma_max: float = 1.5
+    cg_iter: int = 60
+
+
+@dataclass
+class VertexFit:
+    """One vertex's Gaussians: mu (V, K, 3), sigma (V, K), w (V, K, 3); F the objective, rel_err
+    the relative L2 error of the data term over the active views, iters the LM steps."""
+
+    mu: np.ndarray
+    sigma: np.ndarray
+    w: np.ndarray
+    F: float
+    rel_err: float
+    iters: int
+
+
+class VertexProblem:
+    """The data of eq 6 for one vertex: transport T (V, M, 3) over light texels (dirs, omega),
+    the active (above-horizon) views, and the processed neighbours' means for eq 10."""
+
+    def __init__(self, T, active, dirs, omega, opts: FitOptions, normal, nb_means=None):
+        self.T = np.ascontiguousarray(T, np.float64)
+        self.active = np.ascontiguousarray(active, np.bool_)
+        self.dirs = np.ascontiguousarray(dirs, np.float64)
+        self.omega = np.ascontiguousarray(omega, np.float64)
+        self.opts = opts
+        self.normal = np.asarray(normal, float)
+        self.views, _, self.nb, self.cnt = view_set()
+        energy = np.einsum("vmc,m->v", self.T ** 2, self.omega)
+        n_act = max(int(self.active.sum()), 1)
+        self.energy = float(energy[self.active].sum() / n_act)
+        E = self.energy if self.energy > 0 else 1.0
+        self.a = opts.alpha * self.omega / E
+        k = opts.gaussians
+        self.nbmu = (np.zeros((0, len(self.views), k, 3)) if nb_means is None
+                     else np.ascontiguousarray(nb_means, np.float64))
+        self.free = np.ones((len(self.views), K_.P * k), np.bool_)
+        for kk in range(k):
+            self.free[~self.active, K_.P * kk + 3:K_.P * kk + 6] = False
+        self.s_lo, self.s_hi = np.log(opts.sigma_min), np.log(opts.sigma_max)
+
+    def evaluate(self, mu, s, w, jac: bool):
+        """(F, data part, H blocks, g, tangent bases) at the parameters."""
+        o = self.opts
+        V, k = mu.shape[0], mu.shape[1]
+        tb = K_.tangent_bases(mu)
+        H = np.zeros((V, K_.P * k, K_.P * k))
+        g = np.zeros((V, K_.P * k))
+        Fd = K_.data_term(self.T, self.active, self.dirs, self.a, mu, s, w, tb, H, g, jac)
+        Fc = K_.coherence_term(mu, s, self.nb, self.cnt, tb, o.beta, o.gamma, g, jac)
+        Fs = K_.spatial_term(mu, tb, self.nbmu, o.delta, H, g, jac)
+        return Fd + Fc + Fs, Fd, H, g, tb
+
+
+def gaussian(dirs, mu, sigma):
+    """G(ω; μ, σ) = exp((ω·μ − 1)/σ²) (Green06 eq 4 with peak 1)."""
+    return np.exp((np.asarray(dirs) @ np.asarray(mu) - 1.0) / np.asarray(sigma) ** 2)
+
+
+def solve_weights(T, dirs, omega, mu, sigma):
+    """Least-squares RGB weights (K, 3) of fixed Gaussians (K, 3)/(K,) against T (M, 3)."""
+    G = np.stack([gaussian(dirs, m, sg) for m, sg in zip(mu, sigma)], axis=1)   # (M, K)
+    A = G.T @ (G * omega[:, None])
+    A += 1e-12 * np.trace(A) * np.eye(len(sigma)) + 1e-300 * np.eye(len(sigma))
+    return np.linalg.solve(A, G.T @ (T * omega[:, None]))
+
+
+def init_params(prob: VertexProblem):
+    """Per active view: the first Gaussian from the luminance's mean direction and resultant
+    length (Banerjee's κ, σ = 1/√κ), further ones at the largest residual texel; least-squares
+    weights. Inactive views copy the nearest active view's means and σ with zero weight."""
+    k, V = prob.opts.gaussians, len(prob.views)
+    mu = np.zeros((V, k, 3))
+    sig = np.full((V, k), 0.3)
+    w = np.zeros((V, k, 3))
+    refl = 2.0 * (prob.views @ prob.normal)[:, None] * prob.normal - prob.views
+    for v in range(V):
+        mu[v, :] = refl[v] / max(np.linalg.norm(refl[v]), 1e-300)
+        if not prob.active[v]:
+            continue
+        lum = prob.T[v].mean(-1) * prob.omega
+        tot = lum.sum()
+        if tot <= 0:
+            continue
+        m = lum @ prob.dirs
+        r = min(np.linalg.norm(m) / tot, 0.999)
+        mu[v, 0] = m / max(np.linalg.norm(m), 1e-300)
+        kappa = max(r * (3 - r * r) / (1 - r * r), 1e-3)
+        sig[v, :] = np.clip(1.0 / np.sqrt(kappa), prob.opts.sigma_min, prob.opts.sigma_max)
+        for kk in range(1, k):
+            w[v, :kk] = solve_weights(prob.T[v], prob.dirs, prob.omega, mu[v, :kk], sig[v, :kk])
+            approx = sum(w[v, q] * gaussian(prob.dirs, mu[v, q], sig[v, q])[:, None]
+                         for q in range(kk))
+            mu[v, kk] = prob.dirs[np.argmax((prob.T[v] - approx).mean(-1))]
+            sig[v, kk] = max(sig[v, 0] * 0.5, prob.opts.sigma_min)
+        w[v] = solve_weights(prob.T[v], prob.dirs, prob.omega, mu[v], sig[v])
+    _fill_inactive(prob, mu, sig)
+    return mu, np.log(sig), w
+
+
+def init_from_neighbour(prob: VertexProblem, nb_fit: VertexFit):
+    """Flood-fill start: a fitted neighbour's means and σ, weights re-solved on this data."""
+    mu = nb_fit.mu.copy()
+    sig = np.clip(nb_fit.sigma.copy(), prob.opts.sigma_min, prob.opts.sigma_max)
+    w = np.zeros_like(nb_fit.w)
+    for v in np.flatnonzero(prob.active):
+        w[v] = solve_weights(prob.T[v], prob.dirs, prob.omega, mu[v], sig[v])
+    return mu, np.log(sig), w
+
+
+def _fill_inactive(prob, mu, sig):
+    act = np.flatnonzero(prob.active)
+    if not len(act):
+        return
+    for v in np.flatnonzero(~prob.active):
+        near = act[np.argmax(prob.views[act] @ prob.views[v])]
+        mu[v], sig[v] = mu[near], sig[near]
+
+
+def fit_vertex(prob: VertexProblem, start=None) -> VertexFit:
+    """Levenberg–Marquardt on eq 6 from `start` (mu, s, w) or `init_params`."""
+    o = prob.opts
+    mu, s, w = start if start is not None else init_params(prob)
+    w = np.where(prob.active[:, None, None], w, 0.0)
+    F, Fd, H, g, tb = prob.evaluate(mu, s, w, True)
+    lam, it = 1e-3, 0
+    for it in range(1, o.max_iter + 1):
+        sig = np.exp(s)
+        selfd = K_.self_diagonal(prob.nb, prob.cnt, sig, o.beta, o.gamma, o.gaussians)
+        D = np.einsum("vpp->vp", H) + selfd
+        D = np.maximum(D, 1e-9 * max(float(D.max()), 1e-300))
+        accepted = False
+        while lam < 1e10:
+            x = K_.solve_step(H, g, prob.nb, prob.cnt, tb, sig, o.beta, o.gamma, lam, D, selfd,
+                              prob.free, o.cg_iter, 1e-6)
+            mu2, s2, w2 = K_.retract(mu, s, w, tb, x, prob.s_lo, prob.s_hi)
+            F2, Fd2, _, _, _ = prob.evaluate(mu2, s2, w2, False)
+            if F2 < F:
+                accepted = True
+                break
+            lam *= 4.0
+        if not accepted:
+            break
+        done = F - F2 <= o.ftol * F
+        mu, s, w = mu2, s2, w2
+        lam = max(lam / 3.0, 1e-9)
+        F, Fd, H, g, tb = prob.evaluate(mu, s, w, True)
+        if done:
+            break
+    return VertexFit(mu, np.exp(s), w, float(F), float(np.sqrt(Fd / max(o.alpha, 1e-300)
+                     / max(int(prob.active.sum()), 1))) if prob.energy > 0 else 0.0, it)
+
+
+__all__ = ["FitOptions", "VertexFit", "VertexProblem", "gaussian", "solve_weights",
+           "init_params", "init_from_neighbour", "fit_vertex"]
