@@ -1,0 +1,97 @@
+"""Write the report folder: `index.html`, the run's PNGs copied under `assets/<stage>/`, the
+charts under `assets/plots/`. Everything goes into a staging folder beside the target that
+replaces it only when complete: a bad input or a failure leaves nothing half-written, and a
+previous report stays as it was."""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+from sgpipe.errors import BadInput
+from sgpipe.report.collect import Run, collect
+
+INDEX = "index.html"
+MARKER = ".sgpipe-report"        # marks a folder this command wrote (safe to replace)
+
+
+def default_out(run_dir: Path) -> Path:
+    return Path(run_dir) / "report"
+
+
+def pictures(run: Run) -> list:
+    """Every run PNG the page shows."""
+    pics = [p for r in run.methods + ([run.truth] if run.truth else [])
+            for p in (r.image, r.diff) if p is not None]
+    pics += [p for m in run.materials for p in m.pictures]
+    pics += run.envmap_previews
+    pics += [p for ps in run.visibility_pictures.values() for p in ps]
+    return pics
+
+
+def _check_target(out_dir: Path) -> None:
+    """The target may be absent, an empty folder or an earlier report; anything else is the
+    user's and is not replaced."""
+    if out_dir.exists() and not out_dir.is_dir():
+        raise BadInput("exists and is not a folder", file=out_dir, key="--out")
+    if out_dir.is_dir() and any(out_dir.iterdir()) and not (out_dir / MARKER).is_file():
+        raise BadInput("folder exists and is not an sgpipe report (it would be replaced); "
+                       "choose another --out", file=out_dir, key="--out")
+
+
+def _make_parent(parent: Path) -> list[Path]:
+    """Create the target's parent folders; returns those created (removed again on failure)."""
+    made = []
+    p = parent
+    while not p.exists():
+        made.append(p)
+        p = p.parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise BadInput(f"cannot create the report folder ({e.strerror})", file=parent,
+                       key="--out") from None
+    return made
+
+
+def write_report(run_dir: str | Path, out_dir: str | Path | None = None) -> Path:
+    """Read `run_dir`, write its report to `out_dir` (default `run_dir/report`); returns the
+    path of index.html."""
+    from sgpipe.report.page import render_page
+    from sgpipe.report.plots import write_charts
+    run_dir = Path(run_dir)
+    run = collect(run_dir)                           # BadInput for a missing / non-run folder
+    out_dir = Path(out_dir) if out_dir is not None else default_out(run_dir)
+    _check_target(out_dir)
+    made = _make_parent(out_dir.parent)
+    staging = out_dir.parent / f".{out_dir.name}.staging-{os.getpid()}"
+    old = out_dir.parent / f".{out_dir.name}.old-{os.getpid()}"
+    try:
+        try:
+            staging.mkdir()
+        except OSError as e:
+            raise BadInput(f"report folder is not writable ({e.strerror})", file=out_dir.parent,
+                           key="--out") from None
+        for p in pictures(run):
+            dest = staging / p.href
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(p.source, dest)
+        charts = write_charts(run, staging)
+        (staging / INDEX).write_text(render_page(run, charts), encoding="utf-8")
+        (staging / MARKER).write_text("written by `sgpipe report`; replaced by the next one\n")
+        if out_dir.exists():
+            os.replace(out_dir, old)
+        os.replace(staging, out_dir)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        if old.exists() and not out_dir.exists():
+            os.replace(old, out_dir)                 # put the previous report back
+        for p in made:                               # innermost first
+            try:
+                p.rmdir()
+            except OSError:
+                break
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+    return out_dir / INDEX
