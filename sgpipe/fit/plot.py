@@ -18,6 +18,12 @@ _RC = {"font.family": "DejaVu Sans", "font.size": 9, "axes.titlesize": 9,
        "path.simplify": False}
 
 
+def style():
+    """The plots' matplotlib settings, as a context for building a figure and saving it."""
+    import matplotlib
+    return matplotlib.rc_context(_RC)
+
+
 def new_figure(width_in: float, height_in: float, **kw):
     """A matplotlib Figure on the Agg canvas (thread-safe: no pyplot, no global figure list)."""
     import matplotlib
