@@ -1,0 +1,109 @@
+"""The Mitsuba 3 scene of an sgpipe config, built through validation.conventions, and its two
+renders: `box` (Mitsuba's own sensor, box pixel filter, samples over the pixel footprint) and
+`centre` (Mitsuba's sensor sampled at the pixel centres only: what sgpipe traces without pixel
+filtering)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from validation import import_mitsuba
+from validation.conventions import (ENVMAP_TO_WORLD, bsdf_dict, emitter_dict, envmap_for_mitsuba,
+                                    pixel_centres, sensor_params, sphere_to_world)
+
+
+def _mesh(mi, spec, index, bsdf):
+    """A Mitsuba mesh with sgpipe's own loaded geometry (same file, transform and normals)."""
+    import drjit as dr
+    from sgpipe.io.mesh import load_object
+    g = load_object(spec, index)
+    props = mi.Properties()
+    props["bsdf"] = bsdf
+    m = mi.Mesh(spec.name, len(g.positions), len(g.faces), props=props,
+                has_vertex_normals=True, has_vertex_texcoords=False)
+    p = mi.traverse(m)
+    p["vertex_positions"] = dr.ravel(mi.Point3f(*np.asarray(g.positions, np.float32).T))
+    p["vertex_normals"] = dr.ravel(mi.Normal3f(*np.asarray(g.normals, np.float32).T))
+    p["faces"] = dr.ravel(mi.Vector3u(*np.asarray(g.faces, np.uint32).T))
+    p.update()
+    return m
+
+
+def scene_dict(cfg, *, spp: int = 64, env_factor: int = 4) -> dict:
+    """The Mitsuba scene dict of a validated sgpipe config (see docs/VALIDATION.md)."""
+    mi = import_mitsuba()
+    from sgpipe.brdf import brdf_from_spec
+    from sgpipe.io import read_exr
+    from sgpipe.render.setup import environment_scale
+    rs = cfg.render
+    cam = sensor_params(rs.camera)
+    d = {"type": "scene",
+         "integrator": {"type": "direct", "hide_emitters": not rs.background},
+         "sensor": {"type": "perspective", "fov": cam["fov"], "fov_axis": cam["fov_axis"],
+                    "to_world": mi.ScalarTransform4f(cam["to_world"]),
+                    "film": {"type": "hdrfilm", "width": cam["width"],
+                             "height": cam["height"], "rfilter": {"type": "box"},
+                             "pixel_format": "rgb"},
+                    "sampler": {"type": "independent", "sample_count": int(spp)}}}
+    if cfg.envmap is not None:
+        env = read_exr(cfg.envmap.environment, channels=(1, 3, 4), key="envmap.environment")
+        env = env[..., :3] if env.shape[2] >= 3 else np.repeat(env[..., :1], 3, axis=2)
+        d["environment"] = {"type": "envmap",
+                            "bitmap": mi.Bitmap(envmap_for_mitsuba(env, env_factor)),
+                            "scale": environment_scale(cfg),
+                            "to_world": mi.ScalarTransform4f(ENVMAP_TO_WORLD)}
+    mats = {m.name: m for m in cfg.fit.materials}
+    for k, spec in enumerate(cfg.scene.objects):
+        bsdf = bsdf_dict(brdf_from_spec(mats[spec.material]))
+        if spec.sphere_radius is not None:
+            d[f"obj_{k}"] = {"type": "sphere", "bsdf": bsdf, "to_world": mi.ScalarTransform4f(
+                sphere_to_world(spec.translate, spec.sphere_radius * spec.scale))}
+        else:
+            d[f"obj_{k}"] = _mesh(mi, spec, k, mi.load_dict(bsdf))
+    for k, light in enumerate(rs.lights):
+        d[f"light_{k}"] = emitter_dict(light)
+    return d
+
+
+def load_scene(cfg, *, spp: int = 64, env_factor: int = 4):
+    mi = import_mitsuba()
+    return mi.load_dict(scene_dict(cfg, spp=spp, env_factor=env_factor))
+
+
+def render_box(scene, spp: int, seed: int = 0, passes: int = 1) -> np.ndarray:
+    """Mitsuba's own render (box filter over the pixel footprint), mean of `passes` renders of
+    spp each with seeds seed·passes + k, (H, W, 3) float64."""
+    mi = import_mitsuba()
+    acc = None
+    for k in range(passes):
+        img = np.asarray(mi.render(scene, spp=int(spp), seed=int(seed * passes + k)), np.float64)
+        acc = img if acc is None else acc + img
+    return acc[..., :3] / passes
+
+
+def render_centre(scene, spp: int, seed: int = 0, spp_per_pass: int = 16) -> np.ndarray:
+    """Mitsuba's integrator on rays of its sensor through the pixel centres only, (H, W, 3)."""
+    mi = import_mitsuba()
+    import drjit as dr
+    sensor = scene.sensors()[0]
+    size = sensor.film().crop_size()
+    w, h = int(size[0]), int(size[1])
+    xy = pixel_centres(w, h).reshape(-1, 2)
+    integrator = scene.integrator()
+    acc = np.zeros((h * w, 3))
+    done, k = 0, 0
+    while done < spp:
+        n = min(spp_per_pass, spp - done)
+        sampler = mi.load_dict({"type": "independent"})
+        sampler.seed(int(seed) * 100003 + k, h * w * n)
+        pos = mi.Point2f(np.repeat(xy[:, 0], n).astype(np.float32),
+                         np.repeat(xy[:, 1], n).astype(np.float32))
+        ray, weight = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
+        spec, _, _ = integrator.sample(scene, sampler, ray)
+        rgb = spec * weight
+        dr.eval(rgb)
+        arr = np.stack([np.asarray(rgb[c], np.float64) for c in range(3)], -1)
+        acc += arr.reshape(h * w, n, 3).sum(1)
+        done += n
+        k += 1
+    return (acc / spp).reshape(h, w, 3)

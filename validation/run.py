@@ -1,0 +1,128 @@
+"""One validation scene: the sgpipe reference and Mitsuba 3 renders of the same config, and
+their comparison in sgpipe.metrics' display terms (whole frame and surface pixels)."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+SCENES_DIR = Path(__file__).resolve().parent / "scenes"
+MIN_DISPLAY_PSNR_DB = 40.0
+
+
+def scene_paths(names=None) -> list[Path]:
+    """The stored scene configs (validation/scenes/*.yaml), all or those named."""
+    paths = sorted(SCENES_DIR.glob("*.yaml"))
+    if names:
+        by_name = {p.stem: p for p in paths}
+        missing = [n for n in names if n not in by_name]
+        if missing:
+            raise KeyError(f"unknown scene(s) {missing}; known: {sorted(by_name)}")
+        paths = [by_name[n] for n in names]
+    return paths
+
+
+def sgpipe_has_pixel_filter() -> bool:
+    """Whether sgpipe's reference integrates over the pixel (a `render.pixel_filter` key)."""
+    from sgpipe.config.sections.render import RenderSection
+    return any(f.name == "pixel_filter" for f in dataclasses.fields(RenderSection))
+
+
+def _set_pixel_filter(cfg, kind: str):
+    """cfg.render.pixel_filter set to `kind` (box | center), whatever form the key takes."""
+    rs = cfg.render
+    cur = rs.pixel_filter
+    if cur is None or isinstance(cur, str):
+        rs.pixel_filter = kind
+    elif dataclasses.is_dataclass(cur):
+        rs.pixel_filter = dataclasses.replace(cur, type=kind)
+    elif isinstance(cur, dict):
+        rs.pixel_filter = dict(cur, type=kind)
+    else:
+        raise TypeError(f"cannot set render.pixel_filter of type {type(cur).__name__}")
+
+
+@dataclass
+class SceneResult:
+    name: str
+    mode: str                      # "box" (pixel footprint) or "centre" (pixel centres)
+    width: int
+    height: int
+    spp_sgpipe: int
+    spp_mitsuba: int
+    metrics: dict                  # sgpipe.metrics.compare_images of sgpipe vs Mitsuba
+    noise_floor_db: float          # display PSNR of Mitsuba seed A vs seed B (whole frame)
+    noise_floor_surface_db: float
+    sgpipe_s: float
+    mitsuba_s: float
+    images: dict = field(default_factory=dict, repr=False)   # sgpipe, mitsuba, surface
+
+
+def load_scene_config(path: Path, overrides=()):
+    from sgpipe.config.loader import load_config
+    return load_config(path, list(overrides))
+
+
+def render_sgpipe(cfg, mode: str):
+    """sgpipe's reference of the config (the one config → reference path), in `mode`."""
+    from sgpipe.stages.render import reference_from_config
+    if sgpipe_has_pixel_filter():
+        _set_pixel_filter(cfg, "box" if mode == "box" else "center")
+    elif mode == "box":
+        raise RuntimeError("sgpipe's reference has no pixel filter yet: use mode centre")
+    return reference_from_config(cfg)
+
+
+def surface_of(cfg) -> np.ndarray:
+    """Surface pixels (sgpipe.metrics.surface_mask) of the pixel-centre G-buffer."""
+    from sgpipe.metrics import surface_mask
+    from sgpipe.render.scene import load_trace_objects
+    from sgpipe.scene.camera import Camera
+    from sgpipe.scene.gbuffer import Tracer
+    cam = Camera.from_spec(cfg.render.camera)
+    gb = Tracer(load_trace_objects(cfg)).trace(*cam.rays())
+    return surface_mask(gb.object_id)
+
+
+def run_scene(path: Path, *, mode: str, spp_sgpipe: int | None = None, spp_mitsuba: int = 4096,
+              size: int | None = None, env_factor: int = 4, log=print) -> SceneResult:
+    """Render one scene config with both renderers and compare (module docstring)."""
+    from sgpipe.metrics import compare_images, display_psnr
+    from validation import mitsuba_scene as ms
+    over = []
+    if spp_sgpipe:
+        over.append(f"render.spp={int(spp_sgpipe)}")
+    if size:
+        over += [f"render.camera.width={int(size)}", f"render.camera.height={int(size)}"]
+    cfg = load_scene_config(path, over)
+    rs = cfg.render
+    t0 = time.perf_counter()
+    ref = render_sgpipe(cfg, mode)
+    t_sg = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    scene = ms.load_scene(cfg, env_factor=env_factor)
+    half = max(1, spp_mitsuba // 2)
+    render = ms.render_box if mode == "box" else ms.render_centre
+    mi_a = render(scene, half, seed=1)
+    mi_b = render(scene, half, seed=2)
+    t_mi = time.perf_counter() - t0
+    mitsuba = 0.5 * (mi_a + mi_b)
+    surface = surface_of(cfg)
+    img = np.asarray(ref.image, np.float64)
+    metrics = compare_images(img, mitsuba, exposure=rs.preview_exposure, surface=surface)
+    floor = display_psnr(mi_a, mi_b, exposure=rs.preview_exposure)
+    floor_s = display_psnr(mi_a, mi_b, exposure=rs.preview_exposure, mask=surface)
+    log(f"[validate] {cfg.name}: display PSNR {metrics['display_psnr_db']:.2f} dB "
+        f"(surfaces {metrics['surface']['display_psnr_db']:.2f} dB), LDR-FLIP "
+        f"{metrics['flip_ldr']:.4f}, Mitsuba noise floor {floor:.2f} dB; sgpipe {t_sg:.1f} s, "
+        f"Mitsuba {t_mi:.1f} s")
+    return SceneResult(name=cfg.name, mode=mode, width=rs.camera.width, height=rs.camera.height,
+                       spp_sgpipe=rs.spp, spp_mitsuba=2 * half, metrics=metrics,
+                       noise_floor_db=floor, noise_floor_surface_db=floor_s, sgpipe_s=t_sg,
+                       mitsuba_s=t_mi,
+                       images={"sgpipe": img, "mitsuba": mitsuba, "surface": surface,
+                               "exposure": rs.preview_exposure})
