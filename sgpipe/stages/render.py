@@ -55,9 +55,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
         return None
     from sgpipe.render.methods import METHODS, REFERENCE
     from sgpipe.render.records import KernelFlag
-    from sgpipe.render.renderer import Frame
-    from sgpipe.render.scene import ssdf_triangles
-    from sgpipe.render.setup import build_scene, latlong_lookup
+    from sgpipe.render.setup import build_scene
     from sgpipe.scene.camera import Camera
     from sgpipe.scene.gbuffer import Tracer
 
@@ -79,34 +77,37 @@ def run(cfg, out_dir: Path, *, force: bool = False):
         bundle = build_scene(cfg, out_dir, shaders)
         run.timings["setup_s"] = time.perf_counter() - t0
         cam = Camera.from_spec(rs.camera)
-        origins, dirs = cam.rays()
         t0 = time.perf_counter()
         tracer = Tracer(bundle.objects)
-        gb = tracer.trace(origins, dirs)
-        vtri, vbary = ssdf_triangles(gb, bundle.objects, bundle.proxies)
-        frame = Frame.from_gbuffer(gb, vtri, vbary)
+        gb = tracer.trace(*cam.rays())       # the pixel centres: gbuffer.npz, surface masks
+        subframes = supersampled_frames(cam, tracer, bundle, rs.supersample, rs.background,
+                                        centre=gb)
+        frame = subframes[0][0]
         run.timings["gbuffer_s"] = time.perf_counter() - t0
-        bg = None
-        if rs.background and bundle.env_latlong is not None:
-            bg = latlong_lookup(bundle.env_latlong, dirs)
         art.write_gbuffer(run, {k: getattr(gb, k) for k in art.GBUFFER_ARRAYS})
         r = bundle.renderer
         images = {}
         if shaders:
-            fdev = r.upload_frame(frame)
+            fdevs = [r.upload_frame(fr) for fr, _ in subframes]
             mip_cov = cfg.envmap.mip_coverage if cfg.envmap is not None else 0.9
+            ss = f", {rs.supersample}x{rs.supersample} supersampled" if rs.supersample > 1 else ""
             for m in shaders:
                 method = m.name
                 unshadowed = m.baseline_shadows and not rs.baseline_shadows
-                rgb, sec = _time_method(
-                    r, method, fdev, rs.timing_repeats, fis_samples=rs.fis_samples,
-                    gmm_interpolate=rs.gmm_interpolate, mip_coverage=mip_cov,
-                    flags=KernelFlag.NO_VISIBILITY if unshadowed else 0)
-                images[method] = frame.to_image(rgb, bg)
+                acc, sec = None, 0.0
+                for (fr, bg), fdev in zip(subframes, fdevs):
+                    rgb, s_k = _time_method(
+                        r, method, fdev, rs.timing_repeats, fis_samples=rs.fis_samples,
+                        gmm_interpolate=rs.gmm_interpolate, mip_coverage=mip_cov,
+                        flags=KernelFlag.NO_VISIBILITY if unshadowed else 0)
+                    img = fr.to_image(rgb, bg).astype(np.float64)
+                    acc = img if acc is None else acc + img
+                    sec += s_k
+                images[method] = (acc / len(subframes)).astype(np.float32)
                 run.timings[f"{method}_s"] = sec
                 run.timings[f"{method}_fps"] = 1.0 / sec if sec > 0 else float("inf")
                 log(f"[render] {method}: {sec * 1e3:.1f} ms/frame "
-                    f"({cam.width}x{cam.height}, {len(frame.index)} shaded pixels)")
+                    f"({cam.width}x{cam.height}, {len(frame.index)} shaded pixels{ss})")
             run.timings.update(r.timings)
         if REFERENCE in rs.methods:
             images[REFERENCE] = _reference(cfg, bundle, run)
@@ -120,6 +121,31 @@ def run(cfg, out_dir: Path, *, force: bool = False):
         if rs.compare_to is not None:
             _compare(run, images, rs.compare_to, gb.object_id)
     return run
+
+
+def supersample_offsets(n: int) -> list[tuple[float, float]]:
+    """Sub-pixel positions (ox, oy) of `render.supersample` = n: the centres of an n×n grid of
+    cells over the pixel (n = 1: the pixel centre), row by row. Their mean is a box filter."""
+    c = [(k + 0.5) / n for k in range(n)]
+    return [(ox, oy) for oy in c for ox in c]
+
+
+def supersampled_frames(cam, tracer, bundle, n: int, background: bool, centre=None) -> list:
+    """Per sub-pixel position of `supersample_offsets(n)`: (Frame of its G-buffer, background
+    radiance or None). `centre`: the pixel-centre G-buffer when already traced."""
+    from sgpipe.render.renderer import Frame
+    from sgpipe.render.scene import ssdf_triangles
+    from sgpipe.render.setup import latlong_lookup
+    out = []
+    for off in supersample_offsets(n):
+        o, d = cam.rays(offset=off)
+        g = centre if centre is not None and off == (0.5, 0.5) else tracer.trace(o, d)
+        vtri, vbary = ssdf_triangles(g, bundle.objects, bundle.proxies)
+        bg = None
+        if background and bundle.env_latlong is not None:
+            bg = latlong_lookup(bundle.env_latlong, d)
+        out.append((Frame.from_gbuffer(g, vtri, vbary), bg))
+    return out
 
 
 def reference_from_config(cfg, *, objects=None, env=None):
