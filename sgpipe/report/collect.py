@@ -21,6 +21,7 @@ MANIFEST, TIMINGS = "manifest.json", "timings.json"
 #: which command writes each known stage (for the "absent" notes)
 STAGE_COMMAND = {"fit": "fit", "envmap": "precompute", "visibility": "precompute",
                  "render": "render"}
+EIGEN_SHOWN = 8     # SSDF eigen-images shown per object (beside the mean)
 #: envmap previews, in the order shown: (file, caption)
 ENVMAP_PREVIEWS = (
     ("preview_pyramid.png", "Γ_L pyramid levels as lat-long thumbnails, sharpest λ on the left"),
@@ -39,6 +40,7 @@ class Picture:
     caption: str
     width: int
     height: int
+    display: int = 0        # preferred display width (small images are enlarged to it)
 
 
 @dataclass
@@ -212,8 +214,16 @@ def _visibility(run: Run, st: Stage) -> None:
     run.visibility_objects = (rep or {}).get("objects") or {}
     for obj in run.visibility_objects:
         files = sorted(f for f in st.outputs if f.startswith(f"{obj}/") and f.endswith(".png"))
-        run.visibility_pictures[obj] = [
-            p for p in (picture(st, f, _visibility_caption(f)) for f in files) if p]
+        # the mean and the leading eigen-images (the rest are noise-like), then the vertices
+        eigen = [f for f in files if f.endswith("/eigen/ssdf_mean.png")] + \
+            [f for f in files if "/eigen/ssdf_eigen_" in f][:EIGEN_SHOWN]
+        pics = []
+        for f, width in [(f, 96) for f in eigen] + [(f, 384) for f in files if "/previews/" in f]:
+            p = picture(st, f, _visibility_caption(f))
+            if p is not None:
+                p.display = width
+                pics.append(p)
+        run.visibility_pictures[obj] = pics
 
 
 def _visibility_caption(name: str) -> str:

@@ -3,7 +3,6 @@ Chromium. Without Chromium the browser tests skip locally and fail under CI=true
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 
@@ -11,7 +10,7 @@ import pytest
 
 from tiny_scene import tiny_config  # tests/ is on sys.path (this folder is a package)
 
-from report.browser import FIX, find_browser, start
+from report.browser import require_browser, start
 
 
 @pytest.fixture(scope="session")
@@ -20,8 +19,10 @@ def tiny_run(tmp_path_factory):
     stage's error-vs-lobes plots on (report_lobes 2)."""
     root = tmp_path_factory.mktemp("tiny_run")
     cfg = root / "tiny.yaml"
-    cfg.write_text(tiny_config("[sg, gmm, reference]", workers=2)
-                   .replace("report_lobes: 0}", "report_lobes: 2}"))
+    text = tiny_config("[sg, gmm, reference]", workers=2).replace("report_lobes: 0}",
+                                                                   "report_lobes: 2}")
+    assert text.count("report_lobes: 2}") == 2
+    cfg.write_text(text)
     out = root / "run"
     r = subprocess.run([sys.executable, "-m", "sgpipe", "run", str(cfg), "--out", str(out)],
                        capture_output=True, text=True, timeout=300)
@@ -32,13 +33,7 @@ def tiny_run(tmp_path_factory):
 @pytest.fixture(scope="session")
 def chromium():
     """A headless Chromium (selenium + chromedriver), shared by the browser tests."""
-    found = find_browser()
-    if found is None:
-        msg = f"headless Chromium or chromedriver not found; install them: {FIX}"
-        if os.environ.get("CI", "").lower() in ("true", "1"):
-            pytest.fail(msg)
-        pytest.skip(msg)
-    driver = start(*found)
+    driver = start(*require_browser())
     try:
         yield driver
     finally:

@@ -6,6 +6,9 @@ from __future__ import annotations
 
 import shutil
 
+import pytest
+
+from report import browser
 from report.browser import page_problems
 from sgpipe.report.build import write_report
 
@@ -49,3 +52,13 @@ def test_the_checks_catch_broken_pages(tiny_run, tmp_path, chromium):
     blank.write_text("<!doctype html><html><head><link rel='icon' href='data:,'></head>"
                      "<body></body></html>")
     assert [p.split(":")[0] for p in page_problems(chromium, blank)] == ["blank page"]
+
+
+def test_missing_browser_fails_under_ci_and_skips_locally(monkeypatch):
+    monkeypatch.setattr(browser, "find_browser", lambda: None)
+    monkeypatch.setenv("CI", "true")
+    with pytest.raises(pytest.fail.Exception, match="chromium chromium-driver"):
+        browser.require_browser()
+    monkeypatch.delenv("CI")
+    with pytest.raises(pytest.skip.Exception, match="Chromium or chromedriver not found"):
+        browser.require_browser()
