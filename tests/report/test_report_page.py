@@ -184,3 +184,19 @@ def test_failure_while_writing_keeps_the_previous_report(tiny_run, tmp_path, mon
     with pytest.raises(RuntimeError):
         build.write_report(tiny_run, fresh)
     assert not (tmp_path / "new").exists()                           # created parents removed
+
+
+def test_render_without_comparisons_shows_a_gallery(tiny_run, tmp_path):
+    run = tmp_path / "run"
+    shutil.copytree(tiny_run / "render", run / "render")
+    man_path = run / "render" / "manifest.json"
+    man = json.loads(man_path.read_text())
+    man["params"]["render"]["compare_to"] = None            # as `render.compare_to: null` writes
+    del man["report"]["compare"]
+    man_path.write_text(json.dumps(man))
+    assert _cli(["report", run]) == 0
+    html = (run / "report" / "index.html").read_text()
+    assert 'type="range"' not in html and "compared nothing" in html
+    imgs = _parse(run / "report" / "index.html").imgs
+    assert {"assets/render/sg.png", "assets/render/gmm.png", "assets/render/reference.png"} <= \
+        set(imgs)
