@@ -60,14 +60,15 @@ def ggx_lobe(cos_theta, alpha: float):
 
 
 def zonal_nodes(width: float, n: int = 24) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss–Legendre nodes θ ∈ [0, π] on panels doubling from width/4, and the weights of the
-    sphere integral of a zonal function (2π sin θ dθ folded in)."""
+    """Gauss–Legendre nodes θ ∈ [0, π] on panels doubling from width/4 (with an edge at π/2,
+    the kink of max(cos θ, 0)), and the weights of the sphere integral of a zonal function
+    (2π sin θ dθ folded in)."""
     edges = [0.0]
     e = max(width, 1e-5) / 4.0
     while e < math.pi:
         edges.append(e)
         e *= 2.0
-    edges.append(math.pi)
+    edges = sorted(set(edges + [0.5 * math.pi, math.pi]))
     x, wx = np.polynomial.legendre.leggauss(n)
     a, b = np.array(edges[:-1])[:, None], np.array(edges[1:])[:, None]
     th = (0.5 * (b - a) * x + 0.5 * (a + b)).ravel()
@@ -83,7 +84,7 @@ def sg_normalised(cos_theta, lam):
 
 
 def ggx_lobe_integral(alpha: float) -> float:
-    """∫_S² K_α dω by quadrature (→ 1 as α → 0: D is normalised in h, dl = 4(v·h) dh)."""
+    """∫_S² K_α dω by quadrature (→ 4 as α → 0: D is normalised in h, dl = 4(v·h) dh)."""
     th, w = zonal_nodes(2.0 * alpha)
     return float((ggx_lobe(np.cos(th), alpha) * w).sum())
 
