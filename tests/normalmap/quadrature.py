@@ -33,10 +33,10 @@ def frame(mu):
     return np.stack([t, np.cross(mu, t), mu], 1)
 
 
-def vmf_samples_stratified(mu, kappa: float, n: int) -> np.ndarray:
-    """n² directions from vMF(μ, κ) by the inverse CDF on a midpoint grid (deterministic)."""
-    u = (np.arange(n) + 0.5) / n
-    U, V = np.meshgrid(u, u, indexing="ij")
+def vmf_samples_stratified(mu, kappa: float, n: int, m: int | None = None) -> np.ndarray:
+    """n·m (default n²) directions from vMF(μ, κ) by the inverse CDF on a midpoint grid."""
+    m = n if m is None else m
+    U, V = np.meshgrid((np.arange(n) + 0.5) / n, (np.arange(m) + 0.5) / m, indexing="ij")
     w = 1.0 + np.log(U + (1.0 - U) * np.exp(-2.0 * kappa)) / kappa   # cos β
     s = np.sqrt(np.maximum(1 - w * w, 0))
     phi = 2 * math.pi * V
