@@ -67,6 +67,35 @@ def _rotate_from_z(nl, v):
     return v * c[:, None] + np.cross(x, v) + x * (xv / np.maximum(1.0 + c, 1e-9))[:, None]
 
 
+def lift(d, zmin):
+    """Local directions (N, 3) raised to elevation asin(zmin) at least (the kernels' `lift`)."""
+    d = np.array(d, np.float64)
+    low = d[:, 2] < zmin
+    if low.any():
+        xy = d[low, :2]
+        ln = np.linalg.norm(xy, axis=1, keepdims=True)
+        xy = np.where(ln > 1e-8, xy / np.maximum(ln, 1e-30), [[1.0, 0.0]])
+        d[low, :2] = xy * np.sqrt(1.0 - zmin * zmin)
+        d[low, 2] = zmin
+    return d
+
+
+def _local(v, t, b, n):
+    return np.stack([np.einsum("ij,ij->i", v, t), np.einsum("ij,ij->i", v, b),
+                     np.einsum("ij,ij->i", v, n)], -1)
+
+
+def mapped_view(view, t, b, n, t2, b2, n2):
+    """The view direction the kernels shade a normal-mapped pixel with: lifted to elevation
+    ≥ asin 0.01 in the G-buffer frame (t, b, n), then again in the mapped frame (t2, b2, n2)
+    (pixel_init: a mapped normal facing away from the viewer keeps a grazing view instead of
+    turning the pixel black). World vectors (N, 3)."""
+    ol = lift(_local(view, t, b, n), 0.01)
+    ow = ol[:, :1] * t + ol[:, 1:2] * b + ol[:, 2:3] * n
+    op = lift(_unit(_local(ow, t2, b2, n2)), 0.01)
+    return op[:, :1] * t2 + op[:, 1:2] * b2 + op[:, 2:3] * n2
+
+
 def normal_mapped_frame(t, b, n, texel):
     """Frames (t', b', n') of the normal map's texels (N, 3) in the frames (t, b, n)."""
     nl = 2.0 * np.asarray(texel, np.float64) - 1.0
@@ -115,7 +144,9 @@ def primary_rows(tracer, camera, px, py, maps=None) -> dict:
                 ks[sel] = jit.tex_bilinear(m.ks_map, uv[sel])
             if m.normal_map is not None:
                 texel = jit.tex_bilinear(m.normal_map, uv[sel])
-                t[sel], b[sel], n[sel] = normal_mapped_frame(t[sel], b[sel], n[sel], texel)
+                t2, b2, n2 = normal_mapped_frame(t[sel], b[sel], n[sel], texel)
+                view[sel] = mapped_view(view[sel], t[sel], b[sel], n[sel], t2, b2, n2)
+                t[sel], b[sel], n[sel] = t2, b2, n2
         if any(m.kd_map is not None or m.ks_map is not None for m in maps):
             tex = (kd, ks)
     return {"hit": gb.hit, "dirs": d64, "idx": idx, "pos": pos, "t": t, "b": b, "n": n,
