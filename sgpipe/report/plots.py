@@ -17,13 +17,14 @@ def _nan(v) -> float:
     return float("nan") if v is None else float(v)
 
 
-def _bars(ax, names: list[str], groups: dict[str, list[float]], ylabel: str, title: str):
+def _bars(ax, names: list[str], groups: dict[str, list[float]], ylabel: str, title: str,
+          fmt: str):
     """Grouped vertical bars: one group per name, one bar per series of `groups`."""
     x = np.arange(len(names))
     width = 0.8 / max(len(groups), 1)
     for k, (label, vals) in enumerate(groups.items()):
         bars = ax.bar(x + (k - (len(groups) - 1) / 2) * width, vals, width, label=label)
-        ax.bar_label(bars, fmt="%.3g", fontsize=7, padding=1)
+        ax.bar_label(bars, fmt=fmt, fontsize=7, padding=1)
     ax.set_xticks(x, names)
     ax.set_xlabel("method")
     ax.set_ylabel(ylabel)
@@ -43,10 +44,11 @@ def metrics_figure(run: Run):
     ax1, ax2 = fig.subplots(1, 2)
     _bars(ax1, names, {"whole frame": [_nan(r.metrics.get("display_psnr_db")) for r in rows],
                        "surfaces": [_nan(s.get("display_psnr_db")) for s in surf]},
-          "display PSNR (dB, higher is better)", f"display PSNR vs {run.render_facts['truth']}")
+          "display PSNR (dB, higher is better)", f"display PSNR vs {run.render_facts['truth']}",
+          "%.2f")
     _bars(ax2, names, {"whole frame": [_nan(r.metrics.get("flip_ldr")) for r in rows],
                        "surfaces": [_nan(s.get("flip_ldr")) for s in surf]},
-          "LDR-ꟻLIP (lower is better)", f"LDR-ꟻLIP vs {run.render_facts['truth']}")
+          "LDR-ꟻLIP (lower is better)", f"LDR-ꟻLIP vs {run.render_facts['truth']}", "%.4f")
     fig.tight_layout()
     return fig
 
@@ -56,20 +58,21 @@ def timings_figure(run: Run):
     rows = [(r.method, r.seconds) for r in run.methods if r.seconds is not None]
     ref_s = run.render_facts.get("reference_s")
     if ref_s is not None and run.truth is not None:
-        rows.append((f"{run.truth.method} ({run.render_facts.get('spp')} spp)", ref_s))
+        rows.append((f"{run.truth.method}\n({run.render_facts.get('spp')} spp, one render)",
+                     ref_s))
     if not rows:
         return None
     fig = new_figure(6.0, 0.5 + 0.45 * len(rows) + 0.8)
     ax = fig.add_subplot()
     y = np.arange(len(rows))
-    bars = ax.barh(y, [1e3 * s for _, s in rows], color="tab:blue", label="wall clock")
-    ax.bar_label(bars, fmt="%.3g ms", fontsize=7, padding=2)
+    bars = ax.barh(y, [1e3 * s for _, s in rows], color="tab:blue")
+    ax.bar_label(bars, labels=[f"{1e3 * s:.4g} ms" for _, s in rows], fontsize=7, padding=2)
     ax.set_yticks(y, [n for n, _ in rows])
     ax.invert_yaxis()
     ax.set_xscale("log")
     ax.set_xlabel("milliseconds per frame (log scale; best of the warm launches)")
     ax.set_ylabel("method")
-    ax.legend(loc="lower right")
+    ax.set_title("render time per frame (wall clock)")
     ax.margins(x=0.25)
     fig.tight_layout()
     return fig
