@@ -7,7 +7,9 @@ so σ is the angular standard deviation (radians); it is the SG of CONVENTIONS w
 Parameters per view v and Gaussian k (layout p = 6k + …): a tangent step (δ1, δ2) of the mean
 μ_vk on the sphere (μ' = exp_μ(δ1 t1 + δ2 t2), so every step stays a unit vector), s = ln σ, and
 the RGB weight w. The objective is a sum of squares F = ‖r‖² with
-  data (eq 7):  r = √(α Ω_j / E) (Σ_k w_kc G(ω_j; μ_vk, σ_vk) − T_vjc)   (active views only)
+  data (eq 7):  r = √(α Ω_j / E_v) (Σ_k w_kc G(ω_j; μ_vk, σ_vk) − T_vjc)  (active views only;
+                E_v = Σ_j Ω_j ‖T_vj‖², so each view's term is its relative squared error and the
+                BRDF's bright grazing views do not swamp the others)
   means (eq 8): r = √β (μ̄_vk − μ_vk),  μ̄ = mean over the neighbouring views
   sigma (eq 9): r = √γ (σ̄_vk − σ_vk)
   spatial (eq 10): r = √δ max(−d, 0)^{3/2}, d = ⟨μ_vk1 − μ_vk2, ν_k1 − ν_k2⟩ for every
@@ -50,9 +52,9 @@ def tangent_bases(mu):
 
 
 @njit(cache=True)
-def data_term(T, active, dirs, a, mu, s, w, tb, H, g, jac):
+def data_term(T, active, dirs, omega, av, mu, s, w, tb, H, g, jac):
     """Σ of the squared data residuals; with jac, adds their JᵀJ blocks to H (V, 6K, 6K) and
-    Jᵀr to g (V, 6K). `a` (M,) = α Ω_j / E.
+    Jᵀr to g (V, 6K). Texel j of view v weighs av_v Ω_j, av_v = α / E_v.
 
     The weights enter linearly and w_kc is constant over a view, so JᵀJ factors into per-view
     sums over texels — A_kl = Σ a u_k u_lᵀ, B_kl = Σ a g_l u_k, C_kl = Σ a g_k g_l with
@@ -92,7 +94,7 @@ def data_term(T, active, dirs, a, mu, s, w, tb, H, g, jac):
                     u[k, 2] = -2.0 * x * gk[k]
             if far and T[v, j, 0] == 0.0 and T[v, j, 1] == 0.0 and T[v, j, 2] == 0.0:
                 continue
-            aj = a[j]
+            aj = av[v] * omega[j]
             for c3 in range(3):
                 acc = -T[v, j, c3]
                 for k in range(K):

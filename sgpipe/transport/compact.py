@@ -1,7 +1,8 @@
 """Compact storage of the fitted Gaussians (Green06 §6.1 stores 92 × 7 float32 per Gaussian per
 vertex): octahedral unit directions in 2 × uint16, σ as an 8-bit log code, RGB weights as half
-floats, and only the views the renderer can reach — views with a nonzero weight and their
-neighbours (needed to interpolate towards the horizon); colour only for the weighted views.
+floats (scaled by one float32 per vertex), and only the views the renderer can reach — views
+with a nonzero weight and their neighbours (needed to interpolate towards the horizon); colour
+only for the weighted views.
 Per vertex two 92-bit masks say which views are stored and which carry colour."""
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import numpy as np
 from sgpipe.transport.views import N_VIEWS, view_set
 
 MASK_BYTES = (N_VIEWS + 7) // 8
+HALF_MAX = float(np.finfo(np.float16).max)
 
 
 def oct_encode(d):
@@ -59,6 +61,10 @@ def encode(mu, sigma, w, sigma_lo: float, sigma_hi: float) -> dict:
     """Compact arrays of fitted Gaussians mu (X, 92, K, 3), sigma (X, 92, K), w (X, 92, K, 3)."""
     _, _, nb, cnt = view_set()
     weighted = np.any(w != 0, axis=(2, 3))                       # (X, 92)
+    # a per-vertex float32 scale keeps the half floats in [−1, 1], where their relative
+    # precision is 2^-11 (a BRDF's grazing views can exceed the half range, 65504)
+    scale = np.abs(w).max(axis=(1, 2, 3))
+    scale = np.where(scale > 0, scale, 1.0)
     stored = weighted.copy()
     for v in range(N_VIEWS):
         stored[:, nb[v, :cnt[v]]] |= weighted[:, v:v + 1]
@@ -66,7 +72,9 @@ def encode(mu, sigma, w, sigma_lo: float, sigma_hi: float) -> dict:
         "stored_mask": _pack(stored), "weight_mask": _pack(weighted),
         "dirs": oct_encode(mu[stored]), "sigma_code": sigma_encode(sigma[stored], sigma_lo,
                                                                     sigma_hi),
-        "weights": w[weighted].astype(np.float16),
+        "weight_scale": scale.astype(np.float32),
+        "weights": np.clip(w[weighted] / np.repeat(scale, weighted.sum(1))[:, None, None],
+                           -HALF_MAX, HALF_MAX).astype(np.float16),
         "sigma_range": np.array([sigma_lo, sigma_hi], np.float64),
     }
 
@@ -83,7 +91,8 @@ def decode(arrays: dict):
     w = np.zeros((X, N_VIEWS, K, 3))
     mu[stored] = oct_decode(arrays["dirs"])
     sigma[stored] = sigma_decode(arrays["sigma_code"], lo, hi)
-    w[weighted] = arrays["weights"].astype(np.float64)
+    scale = np.repeat(arrays["weight_scale"].astype(np.float64), weighted.sum(1))
+    w[weighted] = arrays["weights"].astype(np.float64) * scale[:, None, None]
     return mu, sigma, w, stored
 
 

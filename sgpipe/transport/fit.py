@@ -22,7 +22,7 @@ class FitOptions:
     """Eq 6's weights and the solver's limits."""
 
     gaussians: int = 1
-    alpha: float = 1.0          # data term D (normalised by the vertex's mean ‖T‖²)
+    alpha: float = 1.0          # data term D (each view's normalised by its ‖T_v‖²)
     beta: float = 0.05          # mean coherence M
     gamma: float = 0.05         # σ coherence V
     delta: float = 1.0          # spatial term S (only with ≥ 2 Gaussians)
@@ -36,7 +36,8 @@ class FitOptions:
 @dataclass
 class VertexFit:
     """One vertex's Gaussians: mu (V, K, 3), sigma (V, K), w (V, K, 3); F the objective, rel_err
-    the relative L2 error of the data term over the active views, iters the LM steps."""
+    the root mean square over the active views of each view's relative L2 error, iters the LM
+    steps."""
 
     mu: np.ndarray
     sigma: np.ndarray
@@ -58,11 +59,13 @@ class VertexProblem:
         self.opts = opts
         self.normal = np.asarray(normal, float)
         self.views, _, self.nb, self.cnt = view_set()
+        # per-view normalisation E_v (floored at 1 % of the mean, so views that receive almost
+        # nothing still pull their weights towards zero without amplifying round-off)
         energy = np.einsum("vmc,m->v", self.T ** 2, self.omega)
         n_act = max(int(self.active.sum()), 1)
         self.energy = float(energy[self.active].sum() / n_act)
-        E = self.energy if self.energy > 0 else 1.0
-        self.a = opts.alpha * self.omega / E
+        floor = 0.01 * self.energy if self.energy > 0 else 1.0
+        self.av = opts.alpha / np.maximum(energy, floor)
         k = opts.gaussians
         self.nbmu = (np.zeros((0, len(self.views), k, 3)) if nb_means is None
                      else np.ascontiguousarray(nb_means, np.float64))
@@ -78,7 +81,8 @@ class VertexProblem:
         tb = K_.tangent_bases(mu)
         H = np.zeros((V, K_.P * k, K_.P * k))
         g = np.zeros((V, K_.P * k))
-        Fd = K_.data_term(self.T, self.active, self.dirs, self.a, mu, s, w, tb, H, g, jac)
+        Fd = K_.data_term(self.T, self.active, self.dirs, self.omega, self.av, mu, s, w, tb, H,
+                          g, jac)
         Fc = K_.coherence_term(mu, s, self.nb, self.cnt, tb, o.beta, o.gamma, g, jac)
         Fs = K_.spatial_term(mu, tb, self.nbmu, o.delta, H, g, jac)
         return Fd + Fc + Fs, Fd, H, g, tb

@@ -58,13 +58,16 @@ def vertex_visibility(scene, position, normal, dirs, offset: float) -> np.ndarra
 
 
 def vertex_transport(brdf, normal, tangent, bitangent, views, light: LightCube,
-                     visibility: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                     visibility: np.ndarray, min_cos: float = 0.0
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """(T (V, M, 3) float64, active (V,) bool): eq 2 with the specular lobe f_s for every
-    view v (rows of `views`, pointing away from the surface); views with n·v <= 0 are inactive
-    and their T is zero. The diffuse part is the view-independent SH transfer."""
+    view v (rows of `views`, pointing away from the surface); views with n·v <= min_cos are
+    inactive and their T is zero. (A view grazing the tangent plane sees no projected area,
+    while some BRDFs — Ward's 1/√(cos θ_o) — diverge there.) The diffuse part is the
+    view-independent SH transfer."""
     n_views, m = len(views), len(light.dirs)
     T = np.zeros((n_views, m, 3))
-    active = views @ normal > 0.0
+    active = views @ normal > min_cos
     lit = np.flatnonzero(visibility)
     if not brdf.has_specular or not len(lit) or not active.any():
         return T, active

@@ -27,7 +27,7 @@ def frame(n):
     return n, t, b
 
 
-def quadrature(brdf, n, t, b, v, res=768):
+def quadrature(brdf, n, t, b, v, res=512):
     """∫ f_s(ω, v) max(n·ω, 0) dω by the midpoint rule in (cos θ, φ) of the local frame."""
     mu = (np.arange(res) + 0.5) / res
     phi = (np.arange(2 * res) + 0.5) / (2 * res) * 2 * np.pi

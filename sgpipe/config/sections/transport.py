@@ -1,0 +1,73 @@
+"""`transport:` — Green06 view-dependent precomputed transport (owned by the transport stage)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from sgpipe.config.schema import doc
+
+#: face resolutions of the light cube (mirrors sgpipe.transport.sampling)
+CUBE_RESOLUTIONS = (4, 8, 16, 32, 64)
+
+
+@dataclass
+class TransportSection:
+    """Per-vertex, per-view transport of the objects of `scene:` fitted with Gaussians
+    (Green06 §4). Materials come from `fit.materials` (the objects' `material`)."""
+
+    cube_resolution: int = doc("Face resolution of the light cubemap the transport is sampled "
+                               "on (6·res² light texels; Green06 used 6×16²). One of "
+                               "4, 8, 16, 32, 64.", 16)
+    gaussians: int = doc("Gaussians per vertex per view (Green06 favours 1).", 1, ge=1, le=3)
+    alpha: float = doc("Weight α of the data term D (eq 7, normalised by the vertex's mean "
+                       "squared transport, so the weights are unitless).", 1.0, gt=0)
+    beta: float = doc("Weight β of the mean coherence term M across neighbouring views "
+                      "(eq 8; radians² of mean jumps).", 0.05, ge=0)
+    gamma: float = doc("Weight γ of the σ coherence term V across neighbouring views (eq 9).",
+                       0.05, ge=0)
+    delta: float = doc("Weight δ of the spatial term S against flipped Gaussian pairs at "
+                       "processed neighbour vertices (eq 10; with 2–3 Gaussians).", 1.0, ge=0)
+    max_iterations: int = doc("Levenberg–Marquardt iterations per vertex at most.", 40,
+                              ge=1, le=1000)
+    tolerance: float = doc("LM stops when a step lowers the objective by less than this "
+                           "fraction.", 1e-6, gt=0, lt=1)
+    sigma_min_deg: float = doc("Smallest Gaussian standard deviation (degrees); 0 = half a "
+                               "light texel (45°/cube_resolution), the narrowest lobe the "
+                               "light cube resolves (a narrower one falls between texel "
+                               "centres and its weight is unbounded). Also the low end of the "
+                               "stored σ code.", 0.0, ge=0)
+    sigma_max_deg: float = doc("Largest Gaussian standard deviation (degrees); the high end of "
+                               "the σ code.", 86.0, gt=0, le=180)
+    min_view_elevation_deg: float = doc("Views closer than this to a vertex's tangent plane "
+                                        "count as below its horizon (weight zero): they see "
+                                        "no projected area, and some BRDFs (Ward) diverge "
+                                        "there.", 1.0, ge=0, lt=30)
+    vertex_limit: int = doc("Largest vertex count per object; a larger mesh is bad input "
+                            "(the cost grows with vertices × 92 views × light texels).", 50000,
+                            ge=1)
+    indirect: bool = doc("Add the indirect glossy transport by path tracing (Green06 §4.1). "
+                         "Not implemented yet: must be false.", False)
+    ray_offset: float = doc("Self-intersection offset along the normal, as a fraction of the "
+                            "scene's bounding-box diagonal (as `visibility.ray_offset`).", 1e-4,
+                            gt=0, lt=0.1)
+    chunk_vertices: int = doc("Vertices per parallel work item; the flood fill (fit started "
+                              "from a fitted neighbour) runs within a chunk, so the chunking, "
+                              "never the worker count, decides the result.", 256, ge=1)
+    sphere_subdivisions: int = doc("Icosphere subdivisions for `sphere_radius` objects.", 3,
+                                   ge=0, le=7)
+    report_vertices: int = doc("Vertices per object whose compact-vs-full error is measured "
+                               "for the report.", 64, ge=0)
+
+    def sigma_min_resolved_deg(self) -> float:
+        """`sigma_min_deg`, or half a light texel when it is 0."""
+        return self.sigma_min_deg or 45.0 / self.cube_resolution
+
+    def validate(self):
+        if self.cube_resolution not in CUBE_RESOLUTIONS:
+            raise ValueError(f"cube_resolution: must be one of {list(CUBE_RESOLUTIONS)}, got "
+                             f"{self.cube_resolution}")
+        if not self.sigma_min_resolved_deg() < self.sigma_max_deg:
+            raise ValueError("sigma_max_deg: must be larger than sigma_min_deg")
+        if self.indirect:
+            raise ValueError("indirect: indirect glossy transport is not implemented yet; "
+                             "set indirect: false")
