@@ -12,10 +12,11 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m validation", description=__doc__)
     ap.add_argument("--out", type=Path, default=Path("out/validate"))
     ap.add_argument("--scenes", nargs="*", help="scene names (default: all)")
-    ap.add_argument("--mode", choices=("auto", "box", "centre"), default="auto",
-                    help="box: both integrate over the pixel (needs sgpipe's pixel filter); "
-                         "centre: both trace through pixel centres; auto: box when sgpipe "
-                         "has a pixel filter")
+    ap.add_argument("--mode", choices=("auto", "filter", "centre"), default="auto",
+                    help="filter: both integrate over the pixel with each scene's "
+                         "render.pixel_filter (box by default; needs sgpipe's pixel filter); "
+                         "centre: both trace through pixel centres only; auto: filter when "
+                         "sgpipe has a pixel filter")
     ap.add_argument("--spp", type=int, default=None,
                     help="sgpipe reference spp (default: each scene's render.spp)")
     ap.add_argument("--mitsuba-spp", type=int, default=8192)
@@ -34,8 +35,8 @@ def main(argv=None) -> int:
     from validation.run import MIN_DISPLAY_PSNR_DB, run_scene, scene_paths, \
         sgpipe_has_pixel_filter
     has_filter = sgpipe_has_pixel_filter()
-    mode = args.mode if args.mode != "auto" else ("box" if has_filter else "centre")
-    if mode == "box" and not has_filter:
+    mode = args.mode if args.mode != "auto" else ("filter" if has_filter else "centre")
+    if mode == "filter" and not has_filter:
         print("validate: sgpipe's reference has no pixel filter: use --mode centre",
               file=sys.stderr)
         return 2
@@ -47,8 +48,9 @@ def main(argv=None) -> int:
     except KeyError as e:
         print(f"validate: {e.args[0]}", file=sys.stderr)
         return 2
-    notes = [f"mode {mode}: " + ("sgpipe's box pixel filter vs Mitsuba's box rfilter"
-                                 if mode == "box" else
+    notes = [f"mode {mode}: " + ("each scene's render.pixel_filter (box unless it says "
+                                 "otherwise) vs the same Mitsuba rfilter"
+                                 if mode == "filter" else
                                  "both renderers trace only through pixel centres")]
     results = []
     for p in paths:

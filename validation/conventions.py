@@ -58,6 +58,27 @@ def pixel_centres(width: int, height: int) -> np.ndarray:
     return np.stack(np.broadcast_arrays(x[None, :], y[:, None]), -1)
 
 
+def rfilter_dict(pixel_filter) -> dict:
+    """Mitsuba's reconstruction filter of sgpipe's `render.pixel_filter` (type, radius, stddev):
+    box (the pixel) → box; tent radius r → tent(radius r); gaussian σ (radius 4σ) →
+    gaussian(stddev σ), Mitsuba's own truncated, shifted Gaussian. sgpipe draws each sample's
+    sub-pixel offset from the filter, Mitsuba splats uniform samples with the filter's weights:
+    both converge to ∫ f L / ∫ f."""
+    get = pixel_filter.get if isinstance(pixel_filter, dict) else \
+        (lambda k, d=None: getattr(pixel_filter, k, d))
+    kind, radius = get("type", "box"), get("radius", None)
+    if kind == "box" and radius in (None, 0.5):
+        return {"type": "box"}
+    if kind == "tent":
+        return {"type": "tent", "radius": float(radius if radius is not None else 1.0)}
+    if kind == "gaussian":
+        sd = float(get("stddev", 0.5))
+        if radius is None or abs(radius - 4 * sd) < 1e-9:
+            return {"type": "gaussian", "stddev": sd}
+    raise Unmappable(f"pixel filter {kind!r} (radius {radius}) has no Mitsuba rfilter "
+                     "counterpart")
+
+
 # --- environment map -------------------------------------------------------------------------
 
 #: sgpipe's lat-long directions and Mitsuba's envmap share φ = atan2(x, −z), θ = acos(y).

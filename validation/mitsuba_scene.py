@@ -1,7 +1,7 @@
 """The Mitsuba 3 scene of an sgpipe config, built through validation.conventions, and its two
-renders: `box` (Mitsuba's own sensor, box pixel filter, samples over the pixel footprint) and
-`centre` (Mitsuba's sensor sampled at the pixel centres only: what sgpipe traces without pixel
-filtering)."""
+renders: `filter` (Mitsuba's own sensor and film with the config's pixel filter, box by
+default) and `centre` (Mitsuba's sensor sampled at the pixel centres only: what sgpipe's
+`center` pixel filter traces)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 
 from validation import import_mitsuba
 from validation.conventions import (ENVMAP_TO_WORLD, bsdf_dict, emitter_dict, envmap_for_mitsuba,
-                                    pixel_centres, sensor_params, sphere_to_world)
+                                    pixel_centres, rfilter_dict, sensor_params, sphere_to_world)
 
 
 def _mesh(mi, spec, index, bsdf):
@@ -29,8 +29,9 @@ def _mesh(mi, spec, index, bsdf):
     return m
 
 
-def scene_dict(cfg, *, spp: int = 64, env_factor: int = 4) -> dict:
-    """The Mitsuba scene dict of a validated sgpipe config (see docs/VALIDATION.md)."""
+def scene_dict(cfg, *, spp: int = 64, env_factor: int = 4, centre: bool = False) -> dict:
+    """The Mitsuba scene dict of a validated sgpipe config (see docs/VALIDATION.md); `centre`:
+    for render_centre, which never uses the film's filter (box then)."""
     mi = import_mitsuba()
     from sgpipe.brdf import brdf_from_spec
     from sgpipe.io import read_exr
@@ -42,7 +43,9 @@ def scene_dict(cfg, *, spp: int = 64, env_factor: int = 4) -> dict:
          "sensor": {"type": "perspective", "fov": cam["fov"], "fov_axis": cam["fov_axis"],
                     "to_world": mi.ScalarTransform4f(cam["to_world"]),
                     "film": {"type": "hdrfilm", "width": cam["width"],
-                             "height": cam["height"], "rfilter": {"type": "box"},
+                             "height": cam["height"],
+                             "rfilter": {"type": "box"} if centre else
+                             rfilter_dict(getattr(rs, "pixel_filter", None) or {}),
                              "pixel_format": "rgb"},
                     "sampler": {"type": "independent", "sample_count": int(spp)}}}
     if cfg.envmap is not None:
@@ -65,13 +68,13 @@ def scene_dict(cfg, *, spp: int = 64, env_factor: int = 4) -> dict:
     return d
 
 
-def load_scene(cfg, *, spp: int = 64, env_factor: int = 4):
+def load_scene(cfg, *, spp: int = 64, env_factor: int = 4, centre: bool = False):
     mi = import_mitsuba()
-    return mi.load_dict(scene_dict(cfg, spp=spp, env_factor=env_factor))
+    return mi.load_dict(scene_dict(cfg, spp=spp, env_factor=env_factor, centre=centre))
 
 
-def render_box(scene, spp: int, seed: int = 0, passes: int = 1) -> np.ndarray:
-    """Mitsuba's own render (box filter over the pixel footprint), mean of `passes` renders of
+def render_filter(scene, spp: int, seed: int = 0, passes: int = 1) -> np.ndarray:
+    """Mitsuba's own render (its film's reconstruction filter), mean of `passes` renders of
     spp each with seeds seed·passes + k, (H, W, 3) float64."""
     mi = import_mitsuba()
     acc = None

@@ -49,7 +49,7 @@ def _set_pixel_filter(cfg, kind: str):
 @dataclass
 class SceneResult:
     name: str
-    mode: str                      # "box" (pixel footprint) or "centre" (pixel centres)
+    mode: str                      # "filter" (the config's pixel filter) or "centre"
     width: int
     height: int
     spp_sgpipe: int
@@ -68,12 +68,14 @@ def load_scene_config(path: Path, overrides=()):
 
 
 def render_sgpipe(cfg, mode: str):
-    """sgpipe's reference of the config (the one config → reference path), in `mode`."""
+    """sgpipe's reference of the config (the one config → reference path): with the config's
+    pixel filter (mode "filter") or through pixel centres only (mode "centre")."""
     from sgpipe.stages.render import reference_from_config
-    if sgpipe_has_pixel_filter():
-        _set_pixel_filter(cfg, "box" if mode == "box" else "center")
-    elif mode == "box":
-        raise RuntimeError("sgpipe's reference has no pixel filter yet: use mode centre")
+    if not sgpipe_has_pixel_filter():
+        if mode == "filter":
+            raise RuntimeError("sgpipe's reference has no pixel filter: use mode centre")
+    elif mode == "centre":
+        _set_pixel_filter(cfg, "center")
     return reference_from_config(cfg)
 
 
@@ -104,9 +106,9 @@ def run_scene(path: Path, *, mode: str, spp_sgpipe: int | None = None, spp_mitsu
     ref = render_sgpipe(cfg, mode)
     t_sg = time.perf_counter() - t0
     t0 = time.perf_counter()
-    scene = ms.load_scene(cfg, env_factor=env_factor)
+    scene = ms.load_scene(cfg, env_factor=env_factor, centre=mode == "centre")
     half = max(1, spp_mitsuba // 2)
-    render = ms.render_box if mode == "box" else ms.render_centre
+    render = ms.render_filter if mode == "filter" else ms.render_centre
     mi_a = render(scene, half, seed=1)
     mi_b = render(scene, half, seed=2)
     t_mi = time.perf_counter() - t0

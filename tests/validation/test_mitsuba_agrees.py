@@ -102,7 +102,7 @@ def test_tiny_scene_both_renderers_agree(mi):
     """The whole path on a 32² ball-on-floor scene (studio map, point light, Beckmann over a
     diffuse layer): whole-frame display PSNR ≥ 33 dB at 128 / 512 spp (noise-limited)."""
     from validation.run import run_scene, scene_paths, sgpipe_has_pixel_filter
-    mode = "box" if sgpipe_has_pixel_filter() else "centre"
+    mode = "filter" if sgpipe_has_pixel_filter() else "centre"
     r = run_scene(scene_paths(["ball_on_floor_shadows"])[0], mode=mode, spp_sgpipe=128,
                   spp_mitsuba=512, size=32, log=lambda *_: None)
     assert r.metrics["display_psnr_db"] >= 33.0

@@ -225,3 +225,15 @@ def test_lights():
     d = cv.emitter_dict(LightSpec(type="directional", direction=(0, 2, 0), intensity=(1, 1, 1)))
     assert d["direction"] == [0.0, -1.0, 0.0]   # Mitsuba: the direction light travels
     assert math.isclose(d["irradiance"]["value"][0], 1.0)
+
+
+def test_pixel_filters():
+    from sgpipe.config.sections.render import PixelFilterSpec
+    assert cv.rfilter_dict(PixelFilterSpec()) == {"type": "box"}
+    assert cv.rfilter_dict(PixelFilterSpec(type="tent")) == {"type": "tent", "radius": 1.0}
+    assert cv.rfilter_dict({"type": "gaussian", "stddev": 0.3}) == {"type": "gaussian",
+                                                                    "stddev": 0.3}
+    for bad in ({"type": "center"}, {"type": "gaussian", "stddev": 0.5, "radius": 1.0},
+                {"type": "box", "radius": 1.0}):
+        with pytest.raises(cv.Unmappable):
+            cv.rfilter_dict(bad)
