@@ -1,0 +1,146 @@
+"""The normalmap stage (part of `sgpipe precompute`): `cfg.normalmap` + the normal maps of
+`cfg.scene` -> `<out>/normalmap/<map>/` (docs/HAN07.md): Han07's vMF and SH pyramids and the
+single-lobe baselines per distinct normal-map file."""
+
+from __future__ import annotations
+
+import os
+import re
+import sys
+import time
+from pathlib import Path
+
+import click
+import numpy as np
+
+from sgpipe.config.schema import to_plain
+from sgpipe.errors import BadInput
+from sgpipe.stages.base import StageRun, log
+
+METHOD_ROWS = ("truth", "vmf", "sh", "toksvig", "normalized")
+
+
+def collect_maps(cfg) -> list[dict]:
+    """Distinct normal-map files of the scene in config order: {name, path, key, objects}; a
+    map's name is its file stem (made unique with -2, -3 … when stems collide)."""
+    maps: dict[str, dict] = {}
+    names: set[str] = set()
+    for k, o in enumerate(cfg.scene.objects if cfg.scene is not None else []):
+        if o.normal_map is None:
+            continue
+        path = str(Path(o.normal_map).resolve())
+        if path not in maps:
+            stem = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(path).stem) or "map"
+            name, i = stem, 1
+            while name in names:
+                i += 1
+                name = f"{stem}-{i}"
+            names.add(name)
+            maps[path] = {"name": name, "path": o.normal_map, "key": f"scene.objects.{k}."
+                          "normal_map", "objects": []}
+        maps[path]["objects"].append(o.name)
+    return list(maps.values())
+
+
+def _bar(total: int):
+    show = sys.stderr.isatty() or os.environ.get("SGPIPE_PROGRESS") == "1"
+    return click.progressbar(length=total, label="normalmap: fitting", file=sys.stderr,
+                             show_pos=True, show_eta=True) if show and total > 1 else None
+
+
+def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
+    """Run the normalmap stage of a validated config (no-op when the section is absent)."""
+    if cfg.normalmap is None:
+        log("[normalmap] no 'normalmap:' section in the config; nothing to do")
+        return None
+    from sgpipe.normalmap.read import check_object_uvs, read_normal_map
+    maps = collect_maps(cfg)
+    if not maps:
+        log("[normalmap] no scene object has a normal_map; nothing to do")
+        return None
+    check_object_uvs(cfg)
+    normals = [read_normal_map(m["path"], m["key"]) for m in maps]   # validated before writing
+    params = {"normalmap": to_plain(cfg.normalmap),
+              "maps": [{"name": m["name"], "objects": m["objects"],
+                        "file": getattr(m["path"], "relative", str(m["path"]))} for m in maps]}
+    with StageRun(cfg, Path(out_dir), "normalmap", params=params,
+                  inputs=[m["path"] for m in maps], force=force) as run:
+        if run.skipped:
+            return run
+        from sgpipe.normalmap.vmf import VMFSettings, progress_steps
+        nm = cfg.normalmap
+        settings = VMFSettings(lobes=nm.lobes, levels=nm.levels, align=nm.align,
+                               align_strength=nm.align_strength, max_iter=nm.em_iterations,
+                               align_iter=nm.align_iterations, tol=nm.em_tolerance,
+                               kappa_max=nm.kappa_max)
+        steps = sum((progress_steps(n.shape[0], settings) if "vmf" in nm.methods else 0) + 2
+                    for n in normals)
+        bar = _bar(steps)
+        try:
+            for m, n in zip(maps, normals):
+                run.report[m["name"]] = _process(run, nm, settings, m["name"], n, bar)
+        finally:
+            if bar:
+                bar.render_finish()
+        from sgpipe.artifacts.normalmap import INDEX
+        run.write_json(INDEX, {"maps": params["maps"]})
+    return run
+
+
+def _process(run: StageRun, nm, settings, name: str, normals: np.ndarray, bar) -> dict:
+    from sgpipe.artifacts import normalmap as art
+    from sgpipe.normalmap import pyramid as P
+    from sgpipe.normalmap import quality as Q
+    from sgpipe.normalmap.sh import ndf_sh_pyramid
+    from sgpipe.normalmap.vmf import fit_vmf_pyramid
+
+    def tick(k=1, what=""):
+        if bar:
+            bar.update(k)
+
+    n_lev = P.level_count(normals.shape[0], nm.levels)
+    h = Q.half_vector(nm.preview_light_deg)
+    s = float(nm.toksvig_exponent)
+    shade = {"truth": Q.truth_levels(normals, s, h, n_lev)}
+    t = time.perf_counter()
+    mean = P.mean_normal_pyramid(normals, nm.levels)
+    if "baselines" in nm.methods:
+        art.write_baselines(run, name, mean=mean,
+                            toksvig=[P.toksvig_factor(m, s) for m in mean],
+                            kappa=[P.engine_kappa(m, nm.kappa_max) for m in mean],
+                            roughness=[P.engine_roughness(m, nm.engine_alpha, nm.kappa_max)
+                                       for m in mean],
+                            toksvig_exponent=s, engine_alpha=nm.engine_alpha)
+    shade["toksvig"], shade["normalized"] = zip(*[Q.baseline_levels(m, s, h) for m in mean])
+    run.timings[f"{name}.baselines_s"] = time.perf_counter() - t
+    tick()
+    if "sh" in nm.methods:
+        t = time.perf_counter()
+        gamma = ndf_sh_pyramid(normals, nm.sh_order, nm.levels)
+        run.timings[f"{name}.sh_s"] = time.perf_counter() - t
+        art.write_sh(run, name, gamma, nm.sh_order)
+        shade["sh"] = [Q.sh_level(g, s, h) for g in gamma]
+    tick()
+    if "vmf" in nm.methods:
+        t = time.perf_counter()
+        pyr = fit_vmf_pyramid(normals, settings, progress=tick)
+        run.timings[f"{name}.vmf_s"] = time.perf_counter() - t
+        art.write_vmf(run, name, pyr.alpha, pyr.alpha_r, kappa_max=nm.kappa_max,
+                      aligned=nm.align)
+        shade["vmf"] = [Q.vmf_level(a, ar, s, h) for a, ar in zip(pyr.alpha, pyr.alpha_r)]
+    rows = [r for r in METHOD_ROWS if r in shade]
+    errors = {r: [round(Q.rel_rms(np.asarray(shade[r][lev]), shade["truth"][lev]), 6)
+                  for lev in range(n_lev)] for r in rows if r != "truth"}
+    quality = {"blinn_phong_exponent": s, "half_vector": h.tolist(),
+               "rel_rms_by_level": errors, "rows_of_preview": rows}
+    run.write_json(art.map_file(name, art.QUALITY), quality)
+    peak = float(shade["truth"][0].max()) or 1.0
+    strips = [art.atlas([np.asarray(x, np.float32)[..., None] / peak for x in shade[r]])
+              for r in rows]
+    gap = np.zeros((2,) + strips[0].shape[1:], np.float32)
+    run.write_png(art.map_file(name, art.PREVIEW_LEVELS),
+                  np.concatenate(sum([[st, gap] for st in strips], [])[:-1])[..., 0])
+    log(f"[normalmap] {name}: {normals.shape[0]}² map, {n_lev} levels; Blinn–Phong s = {s:g} "
+        f"rel. error at the coarsest level: "
+        + ", ".join(f"{r} {errors[r][-1]:.3f}" for r in errors))
+    return {"side": int(normals.shape[0]), "levels": n_lev, "rel_rms_by_level": errors}
