@@ -5,12 +5,13 @@ previous report stays as it was."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 from pathlib import Path
 
 from sgpipe.errors import BadInput
-from sgpipe.report.collect import Run, collect
+from sgpipe.report.collect import Run, check_run_dir, collect
 
 INDEX = "index.html"
 MARKER = ".sgpipe-report"        # marks a folder this command wrote (safe to replace)
@@ -55,13 +56,32 @@ def _make_parent(parent: Path) -> list[Path]:
     return made
 
 
+@contextlib.contextmanager
+def _run_lock(run_dir: Path):
+    """The run folder's lock (sgpipe.stages.base.folder_lock), so the page never catches a stage
+    half-way through replacing its folder: a running `sgpipe run` is waited for. A folder this
+    user cannot write (an archived run) is read without it."""
+    if not os.access(run_dir, os.W_OK):
+        yield
+        return
+    from sgpipe.stages.base import folder_lock
+    with folder_lock(run_dir):
+        yield
+
+
 def write_report(run_dir: str | Path, out_dir: str | Path | None = None) -> Path:
     """Read `run_dir`, write its report to `out_dir` (default `run_dir/report`); returns the
     path of index.html."""
+    run_dir = Path(run_dir)
+    check_run_dir(run_dir)
+    with _run_lock(run_dir):
+        return _write(run_dir, out_dir)
+
+
+def _write(run_dir: Path, out_dir: str | Path | None) -> Path:
     from sgpipe.report.page import render_page
     from sgpipe.report.plots import write_charts
-    run_dir = Path(run_dir)
-    run = collect(run_dir)                           # BadInput for a missing / non-run folder
+    run = collect(run_dir)                           # BadInput for a folder without stages
     out_dir = Path(out_dir) if out_dir is not None else default_out(run_dir)
     _check_target(out_dir)
     made = _make_parent(out_dir.parent)

@@ -113,14 +113,19 @@ def _json(path: Path, stage: str) -> Any:
         raise BadInput(f"unreadable JSON ({e})", file=path, key=stage) from None
 
 
-def find_stages(run_dir: Path) -> dict[str, Stage]:
-    """Every `<stage>/manifest.json` of the folder: known stages in pipeline order, others after
-    them by name. A folder without any is not a run folder (BadInput naming it)."""
+def check_run_dir(run_dir: Path) -> None:
+    """BadInput naming `run_dir` when it is missing or not a folder."""
     if not run_dir.exists():
         raise BadInput("run folder not found", file=run_dir, key="RUN_DIR")
     if not run_dir.is_dir():
         raise BadInput("not a folder (give the --out folder of `sgpipe run`)", file=run_dir,
                        key="RUN_DIR")
+
+
+def find_stages(run_dir: Path) -> dict[str, Stage]:
+    """Every `<stage>/manifest.json` of the folder: known stages in pipeline order, others after
+    them by name. A folder without any is not a run folder (BadInput naming it)."""
+    check_run_dir(run_dir)
     found = sorted(p.parent.name for p in run_dir.glob(f"*/{MANIFEST}") if p.is_file())
     if not found:
         raise BadInput("not an sgpipe run folder: no <stage>/manifest.json in it (fit, envmap, "

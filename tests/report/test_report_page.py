@@ -200,3 +200,24 @@ def test_render_without_comparisons_shows_a_gallery(tiny_run, tmp_path):
     imgs = _parse(run / "report" / "index.html").imgs
     assert {"assets/render/sg.png", "assets/render/gmm.png", "assets/render/reference.png"} <= \
         set(imgs)
+
+
+def test_waits_for_a_run_holding_the_folder(tiny_run, tmp_path):
+    import subprocess
+    import sys
+    run = tmp_path / "run"
+    shutil.copytree(tiny_run / "fit", run / "fit")
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import fcntl, os, sys, time\n"
+         f"fd = os.open({str(run)!r}, os.O_RDONLY); fcntl.flock(fd, fcntl.LOCK_EX)\n"
+         "print('locked', flush=True); time.sleep(2.0)"], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        r = subprocess.run([sys.executable, "-m", "sgpipe", "report", str(run)],
+                           capture_output=True, text=True, timeout=120)
+        assert holder.wait(timeout=30) == 0
+    finally:
+        holder.kill()
+    assert r.returncode == 0, r.stderr
+    assert "waiting for another sgpipe run" in r.stderr
+    assert (run / "report" / "index.html").is_file()
