@@ -40,7 +40,7 @@ def test_v_groove_baselines_closed_form():
 
 def test_engine_kappa_of_a_vmf_texel():
     """The mean of vMF(κ) draws has length A(κ) (eq 16), so the bake's κ is Banerjee(A(κ)):
-    κ within 6 % (5.27 for κ = 5, 50.1 for 50)."""
+    κ within 6 % (Banerjee(A(κ)) = 5.25 for κ = 5, 50.5 for 50)."""
     for kappa in (5.0, 50.0, 500.0):
         x = vmf_samples_stratified([0.1, 0.3, 0.9], kappa, 64).reshape(64, 64, 3)
         got = P.engine_kappa(P.mean_normal_pyramid(x)[-1], 1e6)[0, 0]
