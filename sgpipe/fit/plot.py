@@ -72,13 +72,17 @@ def error_curves_figure(series: list[tuple[str, list, list]], *, title: str = ""
 
 
 def slice_panels_figure(rows: list[tuple[np.ndarray, np.ndarray]], labels: list[str]):
-    """One row per view: the BRDF slice ρ(i,o)(n·i), its vMF-mixture fit and |difference|,
-    each row scaled by the slice's maximum; images are orthographic views of the upper
+    """One row per view: the BRDF slice ρ(i,o)(n·i), its vMF-mixture fit (grey, black 0 to white
+    = the slice's maximum) and |difference| (red, with its colour bar); images are orthographic views of the upper
     hemisphere of i (x right, y up, as `hemisphere_image` samples them)."""
     import matplotlib
     with matplotlib.rc_context(_RC):
         n = len(rows)
-        fig = new_figure(7.2, 2.3 * n + 0.3)
+        height = 2.2 * n + 0.2
+        fig = new_figure(7.6, height)
+        # fixed margins instead of tight_layout (which measures every tick label: slow)
+        fig.subplots_adjust(left=0.08, right=0.9, bottom=0.55 / height, top=1 - 0.5 / height,
+                            wspace=0.35, hspace=0.75)
         axes = fig.subplots(n, 3, squeeze=False)
         titles = ("BRDF × cos slice", "vMF mixture fit", "|slice − fit|")
         for r, ((f, g), label) in enumerate(zip(rows, labels)):
@@ -89,15 +93,15 @@ def slice_panels_figure(rows: list[tuple[np.ndarray, np.ndarray]], labels: list[
                                vmax=1.0 if c < 2 else max(float(img.max()), 1e-12),
                                extent=(-1, 1, -1, 1), origin="upper",
                                interpolation="nearest")
-                ax.set_title(f"{titles[c]}\n{label}" if c == 0 else titles[c])
+                ax.set_title(f"{label}\n{titles[c]}" if c == 0 else f"\n{titles[c]}")
                 ax.set_xlabel("x (tangent)")
                 if c == 0:
                     ax.set_ylabel("y (bitangent)")
                 ax.set_xticks([-1, 0, 1])
                 ax.set_yticks([-1, 0, 1])
-                fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04,
-                             label="relative to the slice's max" if c == 1 else "")
-        fig.tight_layout()
+            # the grey panels share 0 … 1 (the slice's maximum); the difference its own scale
+            fig.colorbar(im, ax=axes[r, 2], fraction=0.046, pad=0.04,
+                         label="relative to the slice's max")
     return fig
 
 

@@ -61,7 +61,7 @@ def test_slice_panels_show_slice_fit_and_difference(tmp_path):
     fig = slice_panels_figure([(f, g), (f, f)], ["view θ = 0°", "view θ = 45°"])
     axes = fig.axes[:6]                    # the colour bars come after the panels
     assert len(axes) == 6
-    assert [ax.get_title().split("\n")[0] for ax in axes[:3]] == [
+    assert [ax.get_title().split("\n")[1] for ax in axes[:3]] == [
         "BRDF × cos slice", "vMF mixture fit", "|slice − fit|"]
     assert all(ax.get_xlabel() == "x (tangent)" for ax in axes)
     assert "view θ = 45°" in axes[3].get_title()
