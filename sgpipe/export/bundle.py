@@ -115,7 +115,13 @@ def build(run_dir: Path, staging: Path, fmt: ktx2.KtxFormat, size: int | None) -
     size = check_size(size, source_res)
 
     def progress(what):
-        return lambda m: _log(f"[export] {what} level {m + 1} done")
+        def report(m, count, lv):
+            how = {"source": "the source map", "direct": "direct GGX quadrature",
+                   "pyramid": "Γ_L pyramid, 4-SG GGX fit"}[lv.method]
+            n = lv.faces.shape[1]
+            _log(f"[export] {what} mip {m + 1}/{count}: {n}x{n}, roughness {lv.roughness:.3f} "
+                 f"(α {lv.alpha:.4f}) from {how}")
+        return report
     levels = prefilter.specular_levels(arts, pyr, size, progress("cubemap"))
     meta = {"KTXwriter": f"sgpipe {sgpipe.__version__}", ROUGHNESS_KEY: ROUGHNESS_TEXT}
     (staging / KTX2_FILE).write_bytes(ktx2.write_ktx2([lv.faces for lv in levels], fmt, meta))

@@ -51,14 +51,14 @@ def test_band_limited_map_irradiance_is_exact(tmp_path):
 
 def test_spot_map_irradiance_within_the_order_2_error(tmp_path):
     """A map with bright spots: nine coefficients hold E to a few % (Ramamoorthi–Hanrahan);
-    measured ≤ 4.4 % of the mean irradiance here."""
+    measured ≤ 2.8 % of the mean irradiance here."""
     from .test_prefilter import spot_radiance
     write_envmap(tmp_path, spot_cube(64))
     irr = np.array(sh9.sh9_document(tmp_path / "envmap")["irradiance"])
     ns = _normals(24)
     ref = np.array([_irradiance(spot_radiance, n) for n in ns])
     err = np.abs(sh9.sh9_irradiance(irr, ns) - ref) / ref.mean(0)
-    assert err.max() < 0.05
+    assert err.max() < 0.035
 
 
 def test_lmax_below_two_is_bad_input(tmp_path):
