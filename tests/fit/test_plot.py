@@ -77,6 +77,6 @@ def test_slice_panels_show_slice_fit_and_difference(tmp_path):
 def test_hemisphere_image_maps_pixels_to_directions():
     img = hemisphere_image(lambda d: d[:, 0] + 10 * d[:, 1], 8)
     c = (np.arange(8) + 0.5) / 8 * 2 - 1
-    assert img[0, 3] == 0.0 or np.isclose(img[0, 3], c[3] + 10 * -c[0])
-    assert np.isclose(img[2, 5], c[5] - 10 * c[2])     # row 2 → y = −c[2] (up is +y)
+    assert np.isclose(img[0, 3], c[3] - 10 * c[0])      # top row: y = −c[0] > 0 (up is +y)
+    assert np.isclose(img[2, 5], c[5] - 10 * c[2])
     assert img[0, 0] == 0.0                            # outside the unit disk
