@@ -12,7 +12,7 @@ import numpy as np
 from validation.run import MIN_DISPLAY_PSNR_DB, SceneResult
 
 COLUMNS = ("scene", "mode", "size", "spp sgpipe / Mitsuba", "display PSNR (dB)",
-           "surfaces (dB)", "LDR-ꟻLIP", "relMSE", "Mitsuba noise floor (dB)", "sgpipe (s)",
+           "surfaces (dB)", "LDR-ꟻLIP", "relMSE", "Mitsuba noise floor (dB)", "surface mean Δ (%)", "sgpipe (s)",
            "Mitsuba (s)")
 
 
@@ -35,6 +35,8 @@ def row(r: SceneResult) -> dict:
             "surface_pixels": s["pixels"],
             "noise_floor_db": _json_num(r.noise_floor_db),
             "noise_floor_surface_db": _json_num(r.noise_floor_surface_db),
+            "surface_mean_ratio_minus_1": r.mean_ratio,
+            "surface_mean_ratio_sigma": r.mean_ratio_sigma,
             "sgpipe_s": round(r.sgpipe_s, 2), "mitsuba_s": round(r.mitsuba_s, 2),
             "pass": passes(r)}
 
@@ -51,7 +53,9 @@ def table_lines(results: list[SceneResult]) -> list[str]:
         cells = [r.name, r.mode, f"{r.width}×{r.height}", f"{r.spp_sgpipe} / {r.spp_mitsuba}",
                  _db(m["display_psnr_db"]) + ("" if passes(r) else " ✗"),
                  _db(s["display_psnr_db"]), f"{m['flip_ldr']:.4f}", f"{m['rel_mse']:.2e}",
-                 _db(r.noise_floor_db), f"{r.sgpipe_s:.1f}", f"{r.mitsuba_s:.1f}"]
+                 _db(r.noise_floor_db),
+                 f"{100 * r.mean_ratio:+.2f} ± {100 * r.mean_ratio_sigma:.2f}",
+                 f"{r.sgpipe_s:.1f}", f"{r.mitsuba_s:.1f}"]
         out.append("| " + " | ".join(cells) + " |")
     return out
 
@@ -84,6 +88,7 @@ def write_report(folder: Path, results: list[SceneResult], *, notes: list[str]) 
     md = ["# sgpipe reference vs Mitsuba 3", "",
           "Display PSNR and ꟻLIP of the 8-bit previews (sgpipe.metrics), sgpipe's reference "
           "as the image and Mitsuba as the reference; surfaces: pixels whose 3×3 "
-          "neighbourhood is one object. Images: `<scene>.side.png` = sgpipe | Mitsuba | "
+          "neighbourhood is one object; surface mean Δ: Σ luminance sgpipe / Σ Mitsuba − 1 over "
+          "the surface pixels ± its standard error (an energy check finer than PSNR). Images: `<scene>.side.png` = sgpipe | Mitsuba | "
           "signed luminance difference.", ""] + [f"- {n}" for n in notes] + [""]
     (folder / "table.md").write_text("\n".join(md + table_lines(results)) + "\n")

@@ -59,6 +59,8 @@ class SceneResult:
     noise_floor_surface_db: float
     sgpipe_s: float
     mitsuba_s: float
+    mean_ratio: float              # Σ luminance sgpipe / Σ luminance Mitsuba − 1, surfaces
+    mean_ratio_sigma: float        # its standard error (both renderers' sample noise)
     images: dict = field(default_factory=dict, repr=False)   # sgpipe, mitsuba, surface
 
 
@@ -90,6 +92,23 @@ def surface_of(cfg) -> np.ndarray:
     return surface_mask(gb.object_id)
 
 
+def mean_ratio(img, mi_a, mi_b, stderr, mask) -> tuple[float, float]:
+    """(Σ Y_sgpipe / Σ Y_Mitsuba − 1, its standard error) over the mask, Y = luminance: an
+    energy check far finer than PSNR. The error combines sgpipe's per-pixel standard error
+    and Mitsuba's from its two independent halves (var of their mean ≈ (a − b)²/4)."""
+    from sgpipe.metrics import luminance
+    m = np.asarray(mask, bool)
+    ys, ya, yb = (luminance(x)[m] for x in (img, mi_a, mi_b))
+    ym = 0.5 * (ya + yb)
+    var = (luminance(np.asarray(stderr, np.float64) ** 2) if stderr is not None else 0.0)
+    var_s = var[m] if np.ndim(var) else np.zeros_like(ys)
+    tot = float(ym.sum())
+    if tot <= 0:
+        return 0.0, 0.0
+    se = float(np.sqrt(np.sum(var_s + 0.25 * (ya - yb) ** 2))) / tot
+    return float(ys.sum() / tot - 1.0), se
+
+
 def run_scene(path: Path, *, mode: str, spp_sgpipe: int | None = None, spp_mitsuba: int = 4096,
               size: int | None = None, env_factor: int = 4, log=print) -> SceneResult:
     """Render one scene config with both renderers and compare (module docstring)."""
@@ -118,13 +137,15 @@ def run_scene(path: Path, *, mode: str, spp_sgpipe: int | None = None, spp_mitsu
     metrics = compare_images(img, mitsuba, exposure=rs.preview_exposure, surface=surface)
     floor = display_psnr(mi_a, mi_b, exposure=rs.preview_exposure)
     floor_s = display_psnr(mi_a, mi_b, exposure=rs.preview_exposure, mask=surface)
+    ratio, ratio_se = mean_ratio(img, mi_a, mi_b, getattr(ref, "stderr", None), surface)
     log(f"[validate] {cfg.name}: display PSNR {metrics['display_psnr_db']:.2f} dB "
         f"(surfaces {metrics['surface']['display_psnr_db']:.2f} dB), LDR-FLIP "
-        f"{metrics['flip_ldr']:.4f}, Mitsuba noise floor {floor:.2f} dB; sgpipe {t_sg:.1f} s, "
+        f"{metrics['flip_ldr']:.4f}, Mitsuba noise floor {floor:.2f} dB, surface mean "
+        f"{100 * ratio:+.3f} ± {100 * ratio_se:.3f} %; sgpipe {t_sg:.1f} s, "
         f"Mitsuba {t_mi:.1f} s")
     return SceneResult(name=cfg.name, mode=mode, width=rs.camera.width, height=rs.camera.height,
                        spp_sgpipe=rs.spp, spp_mitsuba=2 * half, metrics=metrics,
                        noise_floor_db=floor, noise_floor_surface_db=floor_s, sgpipe_s=t_sg,
-                       mitsuba_s=t_mi,
+                       mitsuba_s=t_mi, mean_ratio=ratio, mean_ratio_sigma=ratio_se,
                        images={"sgpipe": img, "mitsuba": mitsuba, "surface": surface,
                                "exposure": rs.preview_exposure})
