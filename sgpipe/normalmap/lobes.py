@@ -9,8 +9,6 @@ import math
 import numpy as np
 from numba import njit
 
-from sgpipe.core.vmf import kappa_from_rbar, mean_resultant_length  # noqa: F401  (re-exported)
-
 
 @njit(cache=True)
 def kappa_of_rbar(r: float) -> float:

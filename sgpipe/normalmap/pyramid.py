@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sgpipe.normalmap.lobes import kappa_from_rbar
+from sgpipe.core.vmf import kappa_from_rbar
 
 
 def level_count(side: int, levels: int | None = None) -> int:

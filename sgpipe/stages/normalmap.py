@@ -14,7 +14,6 @@ import click
 import numpy as np
 
 from sgpipe.config.schema import to_plain
-from sgpipe.errors import BadInput
 from sgpipe.stages.base import StageRun, log
 
 METHOD_ROWS = ("truth", "vmf", "sh", "toksvig", "normalized")
