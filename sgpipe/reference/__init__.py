@@ -14,7 +14,9 @@
 * `lights`: point / directional lights, dicts or objects with `type` ("directional" | "point"),
   `direction` (directional: unit vector from the scene TOWARDS the light), `position` (point),
   and `irradiance` (directional: RGB W/m² on a surface facing the light) or `intensity`
-  (point: RGB W/sr). Each adds f·E·cos θ·V (point: f·I·cos θ·V/r²), evaluated exactly.
+  (point: RGB W/sr). Each adds f·E·cos θ·V (point: f·I·cos θ·V/r²), evaluated exactly; with
+  `area_lights=True` a light's `radius` makes it a sphere / disc of uniform radiance sampled in
+  its cone (sgpipe.reference.lights).
 
 Per pixel the estimator integrates over the pixel footprint with a reconstruction filter
 (`pixel_filter`: box over the pixel by default, tent, Gaussian, or `center` = one ray through

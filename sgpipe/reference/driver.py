@@ -45,12 +45,14 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
                             seed: int = 0, workers: int | None = None,
                             progressive_every: int = 0, strategy: str = "mis",
                             mis: str = "power", background: str | bool = "env",
-                            pixel_filter=None, maps=None) -> ReferenceResult:
+                            pixel_filter=None, maps=None,
+                            area_lights: bool = False) -> ReferenceResult:
     """Render and return image, standard error, timing and progressive checkpoints.
 
     `pixel_filter`: a `PixelFilter`, its type name or a dict (type, radius, stddev); None is
     the box filter over the pixel. `maps`: per object (aligned with `objects`) an `ObjectMaps`
-    (or dict) of normal map and kd / ks multipliers, or None.
+    (or dict) of normal map and kd / ks multipliers, or None. `area_lights`: lights with a
+    `radius` > 0 are spheres / discs of that size (sgpipe.reference.lights), else delta lights.
     """
     from sgpipe.parallel import map_chunks, on_cluster
     from sgpipe.reference.pixel_filter import PixelFilter
@@ -88,7 +90,7 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
     opts = {"spp": spp, "checkpoints": cks, "strategy": strategy, "mis": mis,
             "seed": int(seed), "background": background}
     shared = {"objects": objects, "env": env_s.rgb, "materials": mats,
-              "lights": normalize_lights(lights), "opts": opts, "camera": camera,
+              "lights": normalize_lights(lights, area_lights), "opts": opts, "camera": camera,
               "maps": maps, "filter": filt}
     tasks = []
     key = uuid.uuid4().hex

@@ -9,9 +9,11 @@ import pickle
 import numpy as np
 
 from sgpipe.reference import _sampling_jit as jit
+from sgpipe.reference.lights import light_samples, normalize_lights  # noqa: F401 (re-export)
 from sgpipe.reference.sampler import EnvSampler
 
 _ROWS_PER_PASS = 1 << 16  # sample rows per numpy batch inside a tile
+_LIGHT_STREAM = 0x11647A4EA  # seed tweak of the area lights' uniforms
 
 
 # --- materials and lights -------------------------------------------------------------------
@@ -31,37 +33,6 @@ def _make_brdf(key):
         return key
     from sgpipe.brdf import make_brdf
     return make_brdf(key[0], key[1])
-
-
-def _get(obj, *names, default=None):
-    for n in names:
-        v = obj.get(n) if isinstance(obj, dict) else getattr(obj, n, None)
-        if v is not None:
-            return v
-    return default
-
-
-def _rgb(v):
-    a = np.asarray(v, np.float64).reshape(-1)
-    return np.repeat(a, 3) if a.size == 1 else a[:3]
-
-
-def normalize_lights(lights) -> list[tuple]:
-    """Lights → [("directional", unit dir to light, E rgb) | ("point", position, I rgb)]."""
-    out = []
-    for L in lights or ():
-        kind = str(_get(L, "type", "kind", default="directional")).lower()
-        if kind in ("directional", "distant", "sun"):
-            d = np.asarray(_get(L, "direction", "vector"), np.float64)
-            d = d / np.linalg.norm(d)
-            e = _rgb(_get(L, "irradiance", "intensity", "color", "radiance", default=1.0))
-            out.append(("directional", d, e))
-        elif kind == "point":
-            p = np.asarray(_get(L, "position", "vector"), np.float64)
-            out.append(("point", p, _rgb(_get(L, "intensity", "color", default=1.0))))
-        else:
-            raise ValueError(f"unknown light type {kind!r}")
-    return out
 
 
 # --- the per-tile estimator -----------------------------------------------------------------
@@ -136,29 +107,23 @@ def _technique(brdf, tracer, env, o, t, b, n, ng, org, tex, u1, u2, which, strat
     return out
 
 
-def _direct_lights(brdf, tracer, lights, o, t, b, n, ng, pos, org, tex):
-    """Exact contribution of delta lights, (P, 3)."""
+def _direct_lights(brdf, tracer, lights, o, t, b, n, ng, pos, org, tex, ul=None):
+    """Contribution (P, 3) of the local lights (sgpipe.reference.lights): delta lights exactly,
+    area lights with one cone sample each (uniforms `ul` (P, 2·lights))."""
     out = np.zeros((len(o), 3))
-    for kind, v, e in lights:
-        if kind == "directional":
-            d = np.broadcast_to(v, pos.shape)
-            tmax = np.inf
-            scale = np.ones(len(o))
-        else:
-            d = v - pos
-            dist = np.linalg.norm(d, axis=1)
-            d = d / np.maximum(dist, 1e-30)[:, None]
-            tmax = dist
-            scale = 1.0 / np.maximum(dist, 1e-30) ** 2
+    for k, light in enumerate(lights):
+        u1 = u2 = None
+        if light[3] > 0:
+            u1, u2 = ul[:, 2 * k], ul[:, 2 * k + 1]
+        d, factor, tmax = light_samples(light, pos, u1, u2)
         il = np.stack([np.einsum("ij,ij->i", d, t), np.einsum("ij,ij->i", d, b),
                        np.einsum("ij,ij->i", d, n)], -1)
         ok = np.flatnonzero((il[:, 2] > 0) & (np.einsum("ij,ij->i", d, ng) > 0))
         if ok.size == 0:
             continue
         tx = None if tex is None else (tex[0][ok], tex[1][ok])
-        c = _brdf_eval(brdf, o[ok], il[ok], tx) * e * (il[ok, 2] * scale[ok])[:, None]
-        tm = tmax if np.isscalar(tmax) else tmax[ok]
-        vis = _visible(tracer, org[ok], np.ascontiguousarray(d[ok]), tmax=tm)
+        c = _brdf_eval(brdf, o[ok], il[ok], tx) * factor[ok] * il[ok, 2:3]
+        vis = _visible(tracer, org[ok], np.ascontiguousarray(d[ok]), tmax=tmax[ok])
         out[ok] += c * vis[:, None]
     return out
 
@@ -185,7 +150,7 @@ def _shared(task):
     return _CACHE
 
 
-def _shade_hits(sh, rows, u, strategy, mis):
+def _shade_hits(sh, rows, u, ul, strategy, mis):
     """Estimates (M, 3) of the hit rows: exact delta lights + one sample per technique."""
     brdfs, tracer, env, lights = sh["brdfs"], sh["tracer"], sh["env"], sh["lights"]
     pos, n, t, b, ng, view, obj, tex = (rows[k] for k in ("pos", "n", "t", "b", "ng", "view",
@@ -199,7 +164,8 @@ def _shade_hits(sh, rows, u, strategy, mis):
         sel = np.flatnonzero(obj == m)
         tx = None if tex is None else (tex[0][sel], tex[1][sel])
         args = (o_loc[sel], t[sel], b[sel], n[sel], ng[sel])
-        acc = _direct_lights(brdfs[m], tracer, lights, *args, pos[sel], org[sel], tx)
+        acc = _direct_lights(brdfs[m], tracer, lights, *args, pos[sel], org[sel], tx,
+                             None if ul is None else ul[sel])
         for k, which in enumerate(techniques):
             acc += _technique(brdfs[m], tracer, env, *args, org[sel], tx, u[sel, 2 * k],
                               u[sel, 2 * k + 1], which, strategy, mis)
@@ -224,6 +190,7 @@ def shade_tile(task) -> dict:
     s_sq = np.zeros((npx, 3))
     hits = np.zeros(npx, np.int64)
     ck_sums = []
+    n_area = sum(L[3] > 0 for L in sh["lights"])
     centre = None
     if filt.type == "center":  # every sample takes the same ray: trace it once
         centre = primary_rows(sh["tracer"], sh["camera"], cc + 0.5, rr + 0.5, sh["maps"])
@@ -253,7 +220,11 @@ def shade_tile(task) -> dict:
                         tuple(a[h[live]] for a in prim[k]) if k == "tex" else prim[k][h[live]])
                     for k in ("pos", "n", "t", "b", "ng", "view", "obj", "tex")}
             u = jit.uniforms(np.uint64(seed), pid.astype(np.int64), done, ns, 4).reshape(-1, 4)
-            est[live] = _shade_hits(sh, take, u[live], strategy, mis)
+            ul = None
+            if n_area:   # the area lights' own stream: the other numbers stay as they were
+                ul = jit.uniforms(np.uint64(seed ^ _LIGHT_STREAM), pid.astype(np.int64), done,
+                                  ns, 2 * len(sh["lights"])).reshape(npx * ns, -1)[live]
+            est[live] = _shade_hits(sh, take, u[live], ul, strategy, mis)
         hits += (h >= 0).reshape(npx, ns).sum(axis=1)
         jit.accumulate(est, npx, ns, s_sum, s_sq)
         done = nxt

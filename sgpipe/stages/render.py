@@ -82,7 +82,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
         gb = tracer.trace(*cam.rays())       # the pixel centres: gbuffer.npz, surface masks
         subframes = supersampled_frames(cam, tracer, bundle, rs.supersample, rs.background,
                                         centre=gb)
-        frame = subframes[0][0]
+        n_shaded = int(gb.hit.sum())
         run.timings["gbuffer_s"] = time.perf_counter() - t0
         art.write_gbuffer(run, {k: getattr(gb, k) for k in art.GBUFFER_ARRAYS})
         r = bundle.renderer
@@ -107,7 +107,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
                 run.timings[f"{method}_s"] = sec
                 run.timings[f"{method}_fps"] = 1.0 / sec if sec > 0 else float("inf")
                 log(f"[render] {method}: {sec * 1e3:.1f} ms/frame "
-                    f"({cam.width}x{cam.height}, {len(frame.index)} shaded pixels{ss})")
+                    f"({cam.width}x{cam.height}, {n_shaded} shaded pixels{ss})")
             run.timings.update(r.timings)
         if REFERENCE in rs.methods:
             images[REFERENCE] = _reference(cfg, bundle, run)
@@ -117,7 +117,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
                             spp=rs.spp if method == REFERENCE else None)
             run.report.setdefault("mean_rgb", {})[method] = [
                 round(float(c), 6) for c in img.reshape(-1, 3).mean(0)]
-        run.report["shaded_pixels"] = int(len(frame.index))
+        run.report["shaded_pixels"] = n_shaded
         if rs.compare_to is not None:
             _compare(run, images, rs.compare_to, gb.object_id)
     return run
@@ -151,8 +151,9 @@ def supersampled_frames(cam, tracer, bundle, n: int, background: bool, centre=No
 def reference_from_config(cfg, *, objects=None, env=None):
     """The one config → `reference` path (sgpipe.reference.ReferenceResult): camera, pixel
     filter, scene objects with their normal maps and their materials' kd / ks textures,
-    environment × 2^environment_exposure, materials, lights, spp, seed, workers and background
-    of a validated config. `objects` / `env` default to what the config names (meshes through
+    environment × 2^environment_exposure, materials, lights (delta, or spheres / discs of their
+    radius with reference_area_lights), spp, seed, workers and background of a validated
+    config. `objects` / `env` default to what the config names (meshes through
     their loader, the lat-long image); the stage passes its own (visibility geometry, the image
     it already read)."""
     from sgpipe.reference import render_reference_result
@@ -171,7 +172,8 @@ def reference_from_config(cfg, *, objects=None, env=None):
         materials=[brdfs[s.name] for s in specs], lights=rs.lights,
         spp=rs.spp, seed=cfg.seed, workers=cfg.workers or None,
         background="env" if rs.background else "black",
-        pixel_filter=to_plain(rs.pixel_filter), maps=object_maps(cfg))
+        pixel_filter=to_plain(rs.pixel_filter), maps=object_maps(cfg),
+        area_lights=rs.reference_area_lights)
 
 
 def object_maps(cfg) -> list:

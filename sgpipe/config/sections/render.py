@@ -27,7 +27,8 @@ class CameraSpec:
 @dataclass
 class LightSpec:
     """A local light (Wang09 eq 32–33), rendered as one SG lobe whose integral is the light's
-    irradiance; the Monte Carlo reference treats it as the delta light of the same strength."""
+    irradiance; the Monte Carlo reference treats it as the delta light of the same strength, or
+    as a sphere / disc of its radius with `render.reference_area_lights`."""
 
     type: Literal["point", "directional"] = doc("Light type.", "point")
     position: tuple[float, float, float] = doc("Position (point lights).", (2.0, 4.0, 2.0))
@@ -92,6 +93,11 @@ class RenderSection:
         "Pixel filter of the `reference`: each sample's camera ray passes through a sub-pixel "
         "position drawn from it, so silhouettes and directly seen lamps are integrated over "
         "the pixel.", default_factory=PixelFilterSpec)
+    reference_area_lights: bool = doc(
+        "reference: lights of radius > 0 as what the SG methods approximate — a sphere of "
+        "radiance I/(πr²) (point) or a disc of angular radius atan(radius) and radiance "
+        "E/(π sin²α) (directional), sampled in their cone (soft shadows, broadened "
+        "highlights); false: delta lights of the same intensity / irradiance.", False)
     supersample: int = doc("Real-time methods (sg, gmm, fis): N → N×N G-buffers at the "
                            "centres of an N×N grid of sub-pixel cells, shaded and averaged "
                            "(a box filter, comparable with the reference's default); 1 = one "
