@@ -52,84 +52,135 @@ def tangent_bases(mu):
 
 
 @njit(cache=True)
-def data_term(T, active, dirs, omega, av, mu, s, w, tb, H, g, jac):
-    """Σ of the squared data residuals; with jac, adds their JᵀJ blocks to H (V, 6K, 6K) and
-    Jᵀr to g (V, 6K). Texel j of view v weighs av_v Ω_j, av_v = α / E_v.
+def view_data(T, v, dirs, omega, av, mu, s, w, tb, H, g, jac):
+    """Σ of the squared data residuals of view v (mu (K, 3), s (K,), w (K, 3), tb (K, 2, 3) of
+    that view); with jac, adds their JᵀJ to H (6K, 6K) and Jᵀr to g (6K,). Texel j weighs
+    av Ω_j, av = α / E_v.
 
-    The weights enter linearly and w_kc is constant over a view, so JᵀJ factors into per-view
-    sums over texels — A_kl = Σ a u_k u_lᵀ, B_kl = Σ a g_l u_k, C_kl = Σ a g_k g_l with
+    The weights enter linearly and w_kc is constant over a view, so JᵀJ factors into sums over
+    texels — A_kl = Σ a u_k u_lᵀ, B_kl = Σ a g_l u_k, C_kl = Σ a g_k g_l with
     u_k = ∂G_k/∂(δ1, δ2, s) — and H_{u_k u_l} = (w_k·w_l) A_kl, H_{u_k w_lc} = w_kc B_kl,
     H_{w_kc w_lc} = C_kl: 16 multiply-adds per texel instead of the dense 3·(6K)²/2."""
-    V, M, K = T.shape[0], T.shape[1], mu.shape[1]
+    M, K = T.shape[1], mu.shape[0]
     F = 0.0
     gk = np.empty(K)
     u = np.empty((K, 3))
     res = np.empty(3)
-    A = np.empty((K, K, 3, 3))
-    B = np.empty((K, K, 3))
-    C = np.empty((K, K))
-    for v in range(V):
-        if not active[v]:
+    A = np.zeros((K, K, 3, 3))
+    B = np.zeros((K, K, 3))
+    C = np.zeros((K, K))
+    inv2 = np.exp(-2.0 * s)          # 1/σ² per Gaussian
+    for j in range(M):
+        far = True
+        for k in range(K):
+            c = dirs[j, 0] * mu[k, 0] + dirs[j, 1] * mu[k, 1] + dirs[j, 2] * mu[k, 2]
+            x = (c - 1.0) * inv2[k]
+            if x > -SKIP:
+                far = False
+            gk[k] = np.exp(x)
+            if jac:
+                u[k, 0] = gk[k] * inv2[k] * (dirs[j, 0] * tb[k, 0, 0] + dirs[j, 1] * tb[k, 0, 1]
+                                             + dirs[j, 2] * tb[k, 0, 2])
+                u[k, 1] = gk[k] * inv2[k] * (dirs[j, 0] * tb[k, 1, 0] + dirs[j, 1] * tb[k, 1, 1]
+                                             + dirs[j, 2] * tb[k, 1, 2])
+                u[k, 2] = -2.0 * x * gk[k]
+        if far and T[v, j, 0] == 0.0 and T[v, j, 1] == 0.0 and T[v, j, 2] == 0.0:
             continue
-        inv2 = np.exp(-2.0 * s[v])          # 1/σ² per Gaussian
-        if jac:
-            A[:] = 0.0
-            B[:] = 0.0
-            C[:] = 0.0
-        for j in range(M):
-            far = True
+        aj = av * omega[j]
+        for c3 in range(3):
+            acc = -T[v, j, c3]
             for k in range(K):
-                c = dirs[j, 0] * mu[v, k, 0] + dirs[j, 1] * mu[v, k, 1] + dirs[j, 2] * mu[v, k, 2]
-                x = (c - 1.0) * inv2[k]
-                if x > -SKIP:
-                    far = False
-                gk[k] = np.exp(x)
-                if jac:
-                    u[k, 0] = gk[k] * inv2[k] * (dirs[j, 0] * tb[v, k, 0, 0]
-                                                 + dirs[j, 1] * tb[v, k, 0, 1]
-                                                 + dirs[j, 2] * tb[v, k, 0, 2])
-                    u[k, 1] = gk[k] * inv2[k] * (dirs[j, 0] * tb[v, k, 1, 0]
-                                                 + dirs[j, 1] * tb[v, k, 1, 1]
-                                                 + dirs[j, 2] * tb[v, k, 1, 2])
-                    u[k, 2] = -2.0 * x * gk[k]
-            if far and T[v, j, 0] == 0.0 and T[v, j, 1] == 0.0 and T[v, j, 2] == 0.0:
-                continue
-            aj = av[v] * omega[j]
-            for c3 in range(3):
-                acc = -T[v, j, c3]
-                for k in range(K):
-                    acc += w[v, k, c3] * gk[k]
-                res[c3] = acc
-                F += aj * acc * acc
-            if not jac:
-                continue
-            for k in range(K):
-                wr = w[v, k, 0] * res[0] + w[v, k, 1] * res[1] + w[v, k, 2] * res[2]
-                for p in range(3):
-                    g[v, P * k + p] += aj * u[k, p] * wr
-                for c3 in range(3):
-                    g[v, P * k + 3 + c3] += aj * gk[k] * res[c3]
-                for l in range(K):
-                    C[k, l] += aj * gk[k] * gk[l]
-                    for p in range(3):
-                        B[k, l, p] += aj * gk[l] * u[k, p]
-                        for q in range(3):
-                            A[k, l, p, q] += aj * u[k, p] * u[l, q]
+                acc += w[k, c3] * gk[k]
+            res[c3] = acc
+            F += aj * acc * acc
         if not jac:
             continue
         for k in range(K):
+            wr = w[k, 0] * res[0] + w[k, 1] * res[1] + w[k, 2] * res[2]
+            for p in range(3):
+                g[P * k + p] += aj * u[k, p] * wr
+            for c3 in range(3):
+                g[P * k + 3 + c3] += aj * gk[k] * res[c3]
             for l in range(K):
-                ww = w[v, k, 0] * w[v, l, 0] + w[v, k, 1] * w[v, l, 1] + w[v, k, 2] * w[v, l, 2]
+                C[k, l] += aj * gk[k] * gk[l]
+                for p in range(3):
+                    B[k, l, p] += aj * gk[l] * u[k, p]
+                    for q in range(3):
+                        A[k, l, p, q] += aj * u[k, p] * u[l, q]
+    if jac:
+        for k in range(K):
+            for l in range(K):
+                ww = w[k, 0] * w[l, 0] + w[k, 1] * w[l, 1] + w[k, 2] * w[l, 2]
                 for p in range(3):
                     for q in range(3):
-                        H[v, P * k + p, P * l + q] += ww * A[k, l, p, q]
+                        H[P * k + p, P * l + q] += ww * A[k, l, p, q]
                     for c3 in range(3):
                         # H[u_k, w_lc] = Σ a (w_kc u_k) g_l
-                        H[v, P * k + p, P * l + 3 + c3] += w[v, k, c3] * B[k, l, p]
-                        H[v, P * l + 3 + c3, P * k + p] += w[v, k, c3] * B[k, l, p]
+                        H[P * k + p, P * l + 3 + c3] += w[k, c3] * B[k, l, p]
+                        H[P * l + 3 + c3, P * k + p] += w[k, c3] * B[k, l, p]
                 for c3 in range(3):
-                    H[v, P * k + 3 + c3, P * l + 3 + c3] += C[k, l]
+                    H[P * k + 3 + c3, P * l + 3 + c3] += C[k, l]
     return F
+
+
+@njit(cache=True)
+def data_term(T, active, dirs, omega, av, mu, s, w, tb, H, g, jac):
+    """Σ over the active views of `view_data` (H (V, 6K, 6K), g (V, 6K))."""
+    F = 0.0
+    for v in range(T.shape[0]):
+        if active[v]:
+            F += view_data(T, v, dirs, omega, av[v], mu[v], s[v], w[v], tb[v], H[v], g[v], jac)
+    return F
+
+
+@njit(cache=True)
+def fit_views_independently(T, active, dirs, omega, av, mu, s, w, s_lo, s_hi, max_iter, ftol):
+    """Levenberg–Marquardt on each active view's data term alone, with its own damping, in
+    place: the start of the joint eq 6 solve (where one global damping would let the slowest
+    view hold back the others)."""
+    K = mu.shape[1]
+    n = P * K
+    for v in range(T.shape[0]):
+        if not active[v]:
+            continue
+        lam = 1e-2
+        tb = tangent_bases(mu[v:v + 1])
+        H = np.zeros((n, n))
+        g = np.zeros(n)
+        F = view_data(T, v, dirs, omega, av[v], mu[v], s[v], w[v], tb[0], H, g, True)
+        for _ in range(max_iter):
+            D = np.empty(n)
+            dmax = 0.0
+            for p in range(n):
+                dmax = max(dmax, H[p, p])
+            for p in range(n):
+                D[p] = max(H[p, p], 1e-9 * max(dmax, 1e-300))
+            accepted = False
+            F2 = F
+            x = np.zeros((1, n))
+            while lam < 1e10:
+                A = H.copy()
+                for p in range(n):
+                    A[p, p] += lam * D[p]
+                x[0] = np.linalg.solve(A, -g)
+                mu2, s2, w2 = retract(mu[v:v + 1], s[v:v + 1], w[v:v + 1], tb, x, s_lo, s_hi)
+                F2 = view_data(T, v, dirs, omega, av[v], mu2[0], s2[0], w2[0], tb[0], H, g,
+                               False)
+                if F2 < F:
+                    accepted = True
+                    break
+                lam *= 4.0
+            if not accepted:
+                break
+            done = F - F2 <= ftol * F
+            mu[v], s[v], w[v] = mu2[0], s2[0], w2[0]
+            lam = max(lam / 3.0, 1e-9)
+            tb = tangent_bases(mu[v:v + 1])
+            H[:] = 0.0
+            g[:] = 0.0
+            F = view_data(T, v, dirs, omega, av[v], mu[v], s[v], w[v], tb[0], H, g, True)
+            if done:
+                break
 
 
 @njit(cache=True)

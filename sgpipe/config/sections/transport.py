@@ -30,7 +30,8 @@ class TransportSection:
     max_iterations: int = doc("Levenberg–Marquardt iterations per vertex at most.", 40,
                               ge=1, le=1000)
     tolerance: float = doc("LM stops when a step lowers the objective by less than this "
-                           "fraction.", 1e-6, gt=0, lt=1)
+                           "fraction (the per-view start phase uses a tenth of it).", 1e-3,
+                           gt=0, lt=1)
     sigma_min_deg: float = doc("Smallest Gaussian standard deviation (degrees); 0 = half a "
                                "light texel (45°/cube_resolution), the narrowest lobe the "
                                "light cube resolves (a narrower one falls between texel "
