@@ -167,3 +167,28 @@ def test_deterministic_across_thread_counts(grooves64):
         set_num_threads(t)
     for x, y in zip(a.alpha + a.alpha_r, b.alpha + b.alpha_r):
         assert x.tobytes() == y.tobytes()
+
+
+def test_bilinear_addressing_and_trilinear_blend(grooves64):
+    """The lookup's addressing is the renderer's (tex_bilinear: repeat, v = 0 the bottom row,
+    texel centres at half-integers) and a fractional lod blends α and α·r of the two levels
+    linearly before κ and μ are recovered."""
+    from sgpipe.normalmap.vmf import bilinear, lobe_from_texel
+    tex = np.arange(4 * 4 * 2, dtype=float).reshape(4, 4, 2)
+    # (u, v) = (0, 1 − 0.5/4): halfway between column 3 and column 0 (wrap), on row 0
+    np.testing.assert_allclose(bilinear(tex, 0.0, 1.0 - 0.125), 0.5 * (tex[0, 3] + tex[0, 0]))
+    np.testing.assert_allclose(bilinear(tex, 0.625, 0.125), tex[3, 2])   # bottom row = v ≈ 0
+    pyr = fit_vmf_pyramid(grooves64, VMFSettings(lobes=4))
+    u, v, lod = 0.37, 0.81, 2.25
+
+    def texels(lev):
+        t = np.concatenate([pyr.alpha[lev][..., None], pyr.alpha_r[lev]], -1).astype(float)
+        return bilinear(t.reshape(t.shape[0], t.shape[1], -1), u, v).reshape(4, 4)
+
+    t = 0.75 * texels(2) + 0.25 * texels(3)
+    al, mu, ka = lookup(pyr, u, v, lod)
+    for j in range(4):
+        a, m, k = lobe_from_texel(*t[j])
+        assert al[j] == pytest.approx(a, abs=1e-12) and ka[j] == pytest.approx(k, rel=1e-9)
+        np.testing.assert_allclose(mu[j], m, atol=1e-12)
+    np.testing.assert_allclose(al.sum(), 1.0, atol=1e-6)
