@@ -237,3 +237,13 @@ def test_pixel_filters():
                 {"type": "box", "radius": 1.0}):
         with pytest.raises(cv.Unmappable):
             cv.rfilter_dict(bad)
+
+
+def test_sgpipe_never_imports_mitsuba():
+    """Mitsuba is validation-only: no module under sgpipe/ imports it (or drjit)."""
+    import re
+    from pathlib import Path
+    root = Path(cv.__file__).resolve().parents[1] / "sgpipe"
+    pat = re.compile(r"^\s*(import|from)\s+(mitsuba|drjit)\b", re.M)
+    hits = [str(p) for p in root.rglob("*.py") if pat.search(p.read_text(encoding="utf-8"))]
+    assert hits == []
