@@ -1,7 +1,8 @@
-"""Write the export folder of a run (`sgpipe export RUN_DIR`): read the envmap and visibility
-artifacts, build the specular mips (sgpipe.export.prefilter), write KTX2, DDS, SH9 JSON and
-glTF into a staging folder beside the target that replaces it only when complete (a bad
-input or a failure leaves nothing half-written; a previous export stays as it was)."""
+"""Write the export folder of a run (`sgpipe export RUN_DIR`): read the envmap, visibility and
+normalmap artifacts, build the specular mips (sgpipe.export.prefilter), write KTX2, DDS, SH9
+JSON, glTF and the normal-map textures into a staging folder beside the target that replaces
+it only when complete (a bad input or a failure leaves nothing half-written; a previous
+export stays as it was)."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ import sgpipe
 from sgpipe.artifacts import envmap as env_art
 from sgpipe.artifacts import visibility as vis_art
 from sgpipe.errors import BadInput
-from sgpipe.export import dds, gltf, ktx2, prefilter, sh9
+from sgpipe.export import dds, gltf, ktx2, normalmaps, prefilter, sh9
 from sgpipe.io.atomic import file_hash
 
 MARKER = ".sgpipe-export"           # marks a folder this command wrote (safe to replace)
@@ -93,6 +94,9 @@ def _inputs(run_dir: Path) -> dict:
     env = run_dir / env_art.KEY
     files = [env / env_art.PYRAMID_INDEX, env / env_art.LIGHT_SH, env / env_art.RAW_LEVEL]
     files += sorted((env / "pyramid").glob("*.exr"))
+    nm = run_dir / "normalmap"
+    for name in normalmaps.map_names(nm):
+        files += [p for p in (nm / name / "vmf.npz", nm / name / "baselines.npz") if p.is_file()]
     vis = run_dir / "visibility"
     if vis.is_dir():
         files += sorted(vis.glob(f"*/{vis_art.GEOMETRY}")) + sorted(
@@ -145,6 +149,7 @@ def build(run_dir: Path, staging: Path, fmt: ktx2.KtxFormat, size: int | None) -
                                 specular_uris=uris, specular_size=size, bin_uri=BIN_FILE)
     (staging / BIN_FILE).write_bytes(blob)
     (staging / GLTF_FILE).write_text(doc.to_json(indent=1) + "\n")
+    normal_maps = normalmaps.export_normal_maps(run_dir / "normalmap", staging)
     return {"sgpipe_version": sgpipe.__version__, "run_dir_inputs": _inputs(run_dir),
             "ktx2": {"file": KTX2_FILE, "vk_format": fmt.name, "levels": len(levels),
                      "roughness_mapping": ROUGHNESS_TEXT},
@@ -153,7 +158,7 @@ def build(run_dir: Path, staging: Path, fmt: ktx2.KtxFormat, size: int | None) -
             "cubemap_levels": [lv.describe() for lv in levels],
             "gltf": {"file": GLTF_FILE, "objects": [o.name for o in objects],
                      "ibl_levels": [lv.describe() for lv in g_levels]},
-            "sh9": {"file": SH9_FILE}}
+            "sh9": {"file": SH9_FILE}, "normal_maps": normal_maps}
 
 
 def write_export(run_dir: str | Path, out_dir: str | Path | None = None, *,

@@ -55,7 +55,9 @@ B10G11R11 = KtxFormat("B10G11R11_UFLOAT_PACK32", 122, 4, 4, (
     (0, 11, CHANNEL_R | QUAL_FLOAT, F32_ZERO, F32_ONE),
     (11, 11, CHANNEL_G | QUAL_FLOAT, F32_ZERO, F32_ONE),
     (22, 10, CHANNEL_B | QUAL_FLOAT, F32_ZERO, F32_ONE)))
-FORMATS = {"rgba16f": RGBA16F, "b10g11r11": B10G11R11}
+R16F = KtxFormat("R16_SFLOAT", 76, 2, 2, (
+    (0, 16, CHANNEL_R | QUAL_FLOAT | QUAL_SIGNED, F32_MINUS_ONE, F32_ONE),))
+FORMATS = {"rgba16f": RGBA16F, "b10g11r11": B10G11R11}     # the --format choices (cubemaps)
 
 
 def dfd_bytes(fmt: KtxFormat) -> bytes:
@@ -92,16 +94,24 @@ def text_value(s: str) -> bytes:
 
 
 def level_bytes(faces: np.ndarray, fmt: KtxFormat) -> bytes:
-    """One mip level (6, n, n, 3) → its faces in order, rows in order, texels packed."""
+    """One mip level (6, n, n, C) or (n, n, C) → its faces in order, rows in order, texels
+    packed. RGBA16F takes RGB (alpha 1) or RGBA; R16F one channel; B10G11R11 RGB."""
+    faces = np.asarray(faces, np.float64)
     if fmt is RGBA16F:
-        return to_half_rgba(faces).astype("<f2").tobytes()
+        if faces.shape[-1] == 3:
+            return to_half_rgba(faces).astype("<f2").tobytes()
+        return np.clip(faces, -65504.0, 65504.0).astype("<f2").tobytes()
+    if fmt is R16F:
+        return np.clip(faces[..., 0], -65504.0, 65504.0).astype("<f2").tobytes()
     return pack_b10g11r11(faces).astype("<u4").tobytes()
 
 
-def write_ktx2(levels: list[np.ndarray], fmt: KtxFormat, metadata: dict[str, str]) -> bytes:
-    """A cubemap KTX2 file: `levels` (6, n_m, n_m, 3) from the base level down, `metadata`
-    extra key/value strings (KTXorientation "rd" is always written)."""
-    size = levels[0].shape[1]
+def write_ktx2(levels: list[np.ndarray], fmt: KtxFormat, metadata: dict[str, str], *,
+               cube: bool = True) -> bytes:
+    """A KTX2 file of a mip chain from the base level down: cubemap levels (6, n_m, n_m, C),
+    or (cube=False) 2-D levels (n_m, n_m, C); `metadata` extra key/value strings
+    (KTXorientation "rd" is always written)."""
+    size = levels[0].shape[1] if cube else levels[0].shape[0]
     count = len(levels)
     dfd = dfd_bytes(fmt)
     kvd = kvd_bytes({"KTXorientation": text_value("rd"),
@@ -121,7 +131,7 @@ def write_ktx2(levels: list[np.ndarray], fmt: KtxFormat, metadata: dict[str, str
         body += data[m]
         pos += len(data[m])
     head = IDENTIFIER + struct.pack(
-        "<9I", fmt.vk_format, fmt.type_size, size, size, 0, 0, 6, count, 0)
+        "<9I", fmt.vk_format, fmt.type_size, size, size, 0, 0, 6 if cube else 1, count, 0)
     head += struct.pack("<4I2Q", dfd_off, len(dfd), kvd_off, len(kvd), 0, 0)
     index = b"".join(struct.pack("<3Q", offsets[m], len(data[m]), len(data[m]))
                      for m in range(count))
@@ -162,7 +172,7 @@ def parse_dfd(buf: bytes) -> dict:
 
 def read_ktx2(buf: bytes) -> dict:
     """Every field of a KTX2 file written by `write_ktx2`, and its levels decoded to float
-    (6, n, n, 3) (RGBA16F: (6, n, n, 4))."""
+    (F, n, n, C) with F the face count (RGBA16F: C = 4, R16F: 1, B10G11R11: 3)."""
     if buf[:12] != IDENTIFIER:
         raise ValueError("not a KTX 2.0 file (identifier)")
     keys = ("vk_format", "type_size", "width", "height", "depth", "layers", "faces",
@@ -173,15 +183,17 @@ def read_ktx2(buf: bytes) -> dict:
     level_index = [dict(zip(("offset", "length", "uncompressed_length"),
                             struct.unpack_from("<3Q", buf, HEADER_BYTES + LEVEL_INDEX_ENTRY * m)))
                    for m in range(hdr["level_count"])]
-    fmt = {f.vk_format: f for f in FORMATS.values()}[hdr["vk_format"]]
+    fmt = {f.vk_format: f for f in (RGBA16F, B10G11R11, R16F)}[hdr["vk_format"]]
     levels = []
+    nf = hdr["faces"]
     for m, e in enumerate(level_index):
         n = max(hdr["width"] >> m, 1)
         raw = buf[e["offset"]:e["offset"] + e["length"]]
-        if fmt is RGBA16F:
-            levels.append(np.frombuffer(raw, "<f2").reshape(6, n, n, 4).astype(np.float64))
+        if fmt is B10G11R11:
+            levels.append(unpack_b10g11r11(np.frombuffer(raw, "<u4").reshape(nf, n, n)))
         else:
-            levels.append(unpack_b10g11r11(np.frombuffer(raw, "<u4").reshape(6, n, n)))
+            c = 4 if fmt is RGBA16F else 1
+            levels.append(np.frombuffer(raw, "<f2").reshape(nf, n, n, c).astype(np.float64))
     return {"header": hdr, "index": idx, "level_index": level_index, "format": fmt,
             "dfd": parse_dfd(buf[idx["dfd_offset"]:idx["dfd_offset"] + idx["dfd_length"]]),
             "kvd": parse_kvd(buf[idx["kvd_offset"]:idx["kvd_offset"] + idx["kvd_length"]]),
