@@ -14,7 +14,7 @@ import numpy as np
 from scipy.special import eval_legendre
 
 from sgpipe.core.sh import sh_eval, sh_expand_bands, sh_irradiance_coeffs
-from sgpipe.normalmap.pyramid import box_down, level_count
+from sgpipe.normalmap.pyramid import level_count
 
 # θ subintervals for ρ̂_l quadrature: geometric near the pole, where sharp lobes live.
 _THETA_EDGES = np.array([0.0, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 0.7, 1.2, math.pi / 2,
@@ -104,11 +104,15 @@ def brdf_coeffs(brdf, lmax: int) -> np.ndarray:
 def ndf_sh_pyramid(normals: np.ndarray, lmax: int, levels: int | None = None) -> list:
     """γ_lm per texel per level, (side_l, side_l, (lmax+1)²) float64: Y_lm(n) at level 0, then
     linear 2×2 MIP-mapping (the averages are exact NDF projections, §5.1)."""
-    n = np.asarray(normals, np.float64)
-    rows = [sh_eval(n[r:r + 64], lmax) for r in range(0, n.shape[0], 64)]  # bounded temporaries
-    out = [np.concatenate(rows, axis=0)]
+    from sgpipe.normalmap._sh_jit import box_down_map, sh_eval_map, sh_norms
+    n = np.ascontiguousarray(normals, np.float64)
+    level0 = np.empty(n.shape[:2] + ((lmax + 1) ** 2,))
+    sh_eval_map(n, int(lmax), sh_norms(lmax), level0)          # = core.sh.sh_eval(n, lmax)
+    out = [level0]
     for _ in range(1, level_count(n.shape[0], levels)):
-        out.append(box_down(out[-1]))
+        m = out[-1].shape[0] // 2
+        out.append(np.empty((m, m, level0.shape[2])))
+        box_down_map(out[-2], out[-1])                          # = pyramid.box_down
     return out
 
 

@@ -13,7 +13,7 @@ from sgpipe.core.sh import sh_eval
 from sgpipe.core.vmf import vmf_pdf
 from sgpipe.normalmap import sh
 from sgpipe.normalmap.lobes import blinn_phong_lobe, vmf_zonal_eq19, vmf_zonal_exact
-from sgpipe.normalmap.pyramid import texel_normals
+from sgpipe.normalmap.pyramid import box_down, texel_normals
 
 from .helpers import tilted_normals
 from .quadrature import frame, polar_rule, vmf_samples_stratified
@@ -28,7 +28,11 @@ def test_lambert_rho_hat_numeric_equals_analytic():
 
 def test_pyramid_is_the_mean_of_the_covered_normals():
     n = tilted_normals(8, seed=2)
+    n[0, 0] = [0.0, 0.0, 1.0]                                  # the pole
+    n[0, 1] = [0.6, -0.8, 0.0]                                 # the equator
     pyr = sh.ndf_sh_pyramid(n, 3)
+    np.testing.assert_allclose(sh.ndf_sh_pyramid(n, 8)[0], sh_eval(n, 8), atol=1e-14)
+    np.testing.assert_array_equal(pyr[2], box_down(pyr[1]))
     assert len(pyr) == 4 and pyr[3].shape == (1, 1, 16)
     for lev, (r, c) in [(1, (2, 3)), (2, (1, 0)), (3, (0, 0))]:
         want = sh_eval(texel_normals(n, lev, r, c), 3).mean(axis=0)
