@@ -112,8 +112,8 @@ def level_count(size: int) -> int:
 def specular_levels(a: PyramidArtifacts, pyr: Pyramid, size: int, progress=None,
                     min_size: int = 1) -> list[SpecularLevel]:
     """The mips of the exported cubemap, face size `size` down to `min_size` (1: the full
-    chain), roughness m/(count − 1); `progress(m, count, level)` after each. Level 0 (roughness 0) is the
-    source map itself (box-filtered when `size` < N)."""
+    chain), roughness m/(count − 1); `progress(m, count, level)` after each. Level 0
+    (roughness 0) is the source map itself (box-filtered when `size` < N)."""
     src = source_cube(a)
     # the broad levels: quadrature over a coarse box level of the map without its point set,
     # plus the points exactly (box-filtering a sun 10⁵ × the sky into a 32² texel moves it by

@@ -7,7 +7,6 @@ output; the float file differs from it only in dxgiFormat, pitch and texel bytes
 import struct
 
 import numpy as np
-import pytest
 
 from sgpipe.export import dds
 
