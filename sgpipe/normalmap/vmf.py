@@ -200,3 +200,24 @@ def mixture_blinn_phong(alpha, mu, kappa, s: float, omega_h) -> np.ndarray:
         sp = k * s / (k + s)
         out += a * (sp + 1) / (2 * math.pi) * np.maximum(omega_h @ m, 0.0) ** sp
     return out
+
+
+def mixture_zonal(alpha, mu, kappa, rho_hat, omega) -> np.ndarray:
+    """Han07 eq 14 for any radially symmetric BRDF (measured ones included): Σ_j α_j Σ_l ρ̂_l
+    g_l(κ_j) (2l+1)/(4π) P_l(ω·μ_j), with the exact vMF coefficients g_l = Λ_l γ_l =
+    i_l(κ)/i_0(κ) (`lobes.vmf_zonal_exact`) at directions omega (..., 3)."""
+    from scipy.special import eval_legendre
+
+    from sgpipe.normalmap.lobes import vmf_zonal_exact
+    rho_hat = np.asarray(rho_hat, float)
+    lmax = len(rho_hat) - 1
+    l = np.arange(lmax + 1)
+    omega = np.asarray(omega, float)
+    out = np.zeros(omega.shape[:-1])
+    for a, m, k in zip(alpha, mu, kappa):
+        if a <= 0 or k <= 0:
+            continue
+        c = rho_hat * vmf_zonal_exact(k, lmax) * (2 * l + 1) / (4 * math.pi)
+        u = np.clip(omega @ np.asarray(m, float), -1.0, 1.0)
+        out += a * np.sum(c * eval_legendre(l, u[..., None]), axis=-1)
+    return out

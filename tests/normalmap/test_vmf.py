@@ -192,3 +192,27 @@ def test_bilinear_addressing_and_trilinear_blend(grooves64):
         assert al[j] == pytest.approx(a, abs=1e-12) and ka[j] == pytest.approx(k, rel=1e-9)
         np.testing.assert_allclose(mu[j], m, atol=1e-12)
     np.testing.assert_allclose(al.sum(), 1.0, atol=1e-6)
+
+
+def test_eq14_mixture_with_a_measured_brdf_vs_quadrature():
+    """Eq 14 (vMF lobes × a tabulated D(θ_h) through ρ̂_l) equals the direct integral of the
+    table's D against the two-lobe mixture."""
+    from sgpipe.brdf.tabulated import NDF_THETA
+    from sgpipe.normalmap.sh import beckmann_ndf, tabulated_coeffs
+    from sgpipe.normalmap.vmf import mixture_zonal
+    d = beckmann_ndf(np.cos(NDF_THETA), 0.3)
+    rho = tabulated_coeffs(NDF_THETA, d / d[0], 48)     # scaled to ∫ D cos = 1
+
+    def f(u):
+        th = np.arccos(np.clip(u, -1, 1))
+        return np.where(u > 0, np.interp(th, NDF_THETA, d / d[0]), 0.0)
+
+    from sgpipe.normalmap.sh import zonal_coeffs
+    scale = rho[0] / zonal_coeffs(f, 0)[0]               # the same scaling for the table
+    alpha, mus, kappas = [0.7, 0.3], [_unit([0.3, 0, 0.95]), _unit([-0.4, 0.2, 0.9])], [30., 80.]
+    th = np.linspace(-0.8, 0.8, 9)
+    omega = np.stack([np.sin(th), np.zeros_like(th), np.cos(th)], -1)
+    got = mixture_zonal(alpha, mus, kappas, rho, omega)
+    want = sum(a * _convolve(lambda u: scale * f(u), m, k, omega)
+               for a, m, k in zip(alpha, mus, kappas))
+    np.testing.assert_allclose(got / want.max(), want / want.max(), atol=3e-3)
