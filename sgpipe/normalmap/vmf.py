@@ -1,7 +1,7 @@
 """Han07 §7, the vMF method: a mixture of J vMF lobes per texel per MIP level fitted by
 spherical EM (Algorithm 1) to all the normals the texel covers, stored as the textures α_j and
-α_j·r_j that stay valid under trilinear interpolation (§7.3, eq 24 ff.), and the per-lookup
-recovery of κ and μ (Algorithm 2 lines 7–10) that the render kernel mirrors.
+α_j·r_j that stay valid under trilinear interpolation (§7.3: α̃ = T(α), r̃ = T(αr)/T(α)), and
+the per-lookup recovery of κ and μ (Algorithm 2 lines 7–10) that the render kernel mirrors.
 
 Fitting runs fine → coarse (pass 1: level 0 is one delta lobe per texel; each coarser texel
 starts from the Hochbaum–Shmoys choice among its four children's lobes), then coarse → fine
@@ -47,7 +47,7 @@ class VMFPyramid:
 
 
 def _textures(alpha, mu, rbar):
-    """(α, α·r) float32 of lobe parameters, r = rbar · μ (eq 24's linear quantities)."""
+    """(α, α·r) float32 of lobe parameters, r = rbar · μ (§7.3: the quantities linear in γ)."""
     ar = (alpha * rbar)[..., None] * mu
     return alpha.astype(np.float32), ar.astype(np.float32)
 
