@@ -109,3 +109,21 @@ def test_interpolate_and_occlusion():
     assert blocked.tolist() == [True, False, False]
     # tmax stops before the sphere
     assert not tr.occluded(np.array([[0, 0.5, -2.0]]), np.array([[0, 0, 1.0]]), tmax=1.0)[0]
+
+
+def test_rays_at_continuous_positions_match_rays():
+    """rays_at(column + ox, row + oy) gives the bits of rays(offset=(ox, oy)); positions outside
+    the pixel (wide pixel filters) extrapolate the same projection (project() inverts it)."""
+    import numpy as np
+    from sgpipe.scene.camera import Camera
+    cam = Camera(eye=(0.3, 1.1, 3.7), target=(0.1, 0.4, 0.0), fov_deg=37, width=9, height=7)
+    for off in ((0.5, 0.5), (0.1, 0.8)):
+        o, d = cam.rays(offset=off)
+        i, j = np.indices((7, 9))
+        o2, d2 = cam.rays_at(j + off[0], i + off[1])
+        np.testing.assert_array_equal(d, d2)
+        np.testing.assert_array_equal(o, o2)
+    px, py = np.array([-0.7, 4.2, 10.3]), np.array([8.9, 3.3, -1.2])
+    _, d = cam.rays_at(px, py)
+    np.testing.assert_allclose(cam.project(np.asarray(cam.eye) + 2.0 * d), np.stack([px, py], -1),
+                               atol=1e-4)
