@@ -1,7 +1,8 @@
 """Compiled core of the vMF pyramid (Han07 §7.1 and §7.3): per-texel spherical EM over the
 normals a texel covers (Algorithm 1 via sgpipe.fit._em_jit.em_vmf), Hochbaum–Shmoys
-initialisation from the four finer texels, and the coarse-to-fine aligned pass (eq 23): lobe
-slots matched in scan-line order, then the EM with the alignment pull for all texels at once.
+initialisation from the four finer texels (pass 1, fine → coarse), and the aligned pass 2
+(coarse → fine, eq 23): lobe slots matched in scan-line order, then EM with the alignment pull
+for all texels at once.
 
 Lobe parameters of a level: alpha (m, m, J), mu (m, m, J, 3), kappa (m, m, J) and rbar
 (m, m, J), the mean resultant length whose Banerjee κ is the lobe's κ (what the αr textures
@@ -122,36 +123,6 @@ def _finish(alpha, kappa, rbar_out, kappa_max):
         rbar_out[k] = rbar_of_kappa(min(kappa[k], kappa_max)) if alpha[k] > 0.0 else 0.0
 
 
-@njit(cache=True, parallel=True)
-def fit_level_unaligned(normals, level, c_alpha, c_mu, c_rbar, from_normals, alpha, mu, kappa,
-                        rbar, max_iter, tol, kappa_max):
-    """Pass 1 of one level ≥ 1 (fine → coarse): every texel independently, initialised by
-    Hochbaum–Shmoys from the finer level, EM on all the normals it covers."""
-    m_side = alpha.shape[0]
-    k_n = alpha.shape[2]
-    b2 = 1 << (2 * level)
-    ones = np.ones(b2)
-    y = np.zeros((b2, 0))
-    y_out = np.zeros((k_n, 0))
-    nb_a = np.zeros((0, k_n))
-    nb_m = np.zeros((0, k_n, 3))
-    rbar_max = rbar_of_kappa(kappa_max)
-    for t in prange(m_side * m_side):
-        i = t // m_side
-        j = t - i * m_side
-        nc = 4 if from_normals else 4 * c_alpha.shape[2]
-        w = np.empty(nc)
-        cm = np.empty((nc, 3))
-        rb = np.empty(nc)
-        n = _candidates(normals, c_alpha, c_mu, c_rbar, from_normals, i, j, rbar_max, w, cm, rb)
-        hochbaum_shmoys_init(w, cm, rb, n, alpha[i, j], mu[i, j], kappa[i, j], kappa_max)
-        x = np.empty((b2, 3))
-        _gather(normals, level, i, j, x)
-        em_vmf(x, ones, y, alpha[i, j], mu[i, j], kappa[i, j], nb_a, nb_m, 0.0, max_iter, tol,
-               kappa_max, y_out)
-        _finish(alpha[i, j], kappa[i, j], rbar[i, j], kappa_max)
-
-
 @njit(cache=True)
 def _neighbours(alpha, mu, i, j, p_alpha, p_mu, has_parent, nb_a, nb_m):
     """Fills nb_a (≤5, J) / nb_m (≤5, J, 3) with the lobes eq 23 aligns to: the previously
@@ -233,31 +204,49 @@ def match_level(u_alpha, u_mu, u_kappa, p_alpha, p_mu, has_parent, alpha, mu, ka
 
 
 @njit(cache=True, parallel=True)
-def pull_level(normals, level, m_alpha, m_mu, m_kappa, p_alpha, p_mu, has_parent, alpha, mu,
-               kappa, rbar, c_align, max_iter, tol, kappa_max):
-    """Pass 2b of one level ≥ 1: EM from the matched lobes (m_*) with the eq 23 pull of
-    strength C′ = c_align (C = C′/κ_j, the appendix) towards the same neighbours as pass 2a
-    (their matched lobes, so that every texel of the level runs in parallel)."""
+def fit_level(normals, level, aligned, c_alpha, c_mu, c_rbar, from_normals, m_alpha, m_mu,
+              m_kappa, p_alpha, p_mu, has_parent, alpha, mu, kappa, rbar, c_align, max_iter,
+              tol, kappa_max):
+    """EM of every texel of one level ≥ 1 in parallel (one compiled kernel for both passes).
+
+    Pass 1 (aligned False, fine → coarse): start from Hochbaum–Shmoys on the finer level's
+    lobes (c_*; the map's normals when from_normals), no pull. Pass 2b (aligned True): start
+    from the matched lobes (m_*, `match_level`) and pull with the eq 23 strength C′ = c_align
+    (C = C′/κ_j, the appendix) towards the same neighbours as the matching (their matched
+    lobes, so that the texels of a level are independent) and the parent (p_*)."""
     m_side = alpha.shape[0]
     k_n = alpha.shape[2]
     b2 = 1 << (2 * level)
     ones = np.ones(b2)
     y = np.zeros((b2, 0))
     y_out = np.zeros((k_n, 0))
+    rbar_max = rbar_of_kappa(kappa_max)
+    nc = 4 if from_normals else 4 * c_alpha.shape[2]
     for t in prange(m_side * m_side):
         i = t // m_side
         j = t - i * m_side
-        alpha[i, j, :] = m_alpha[i, j, :]
-        mu[i, j, :, :] = m_mu[i, j, :, :]
-        kappa[i, j, :] = m_kappa[i, j, :]
-        nb_a = np.zeros((5, k_n))
-        nb_m = np.zeros((5, k_n, 3))
-        n_nb = _neighbours(m_alpha, m_mu, i, j, p_alpha, p_mu, has_parent, nb_a, nb_m)
-        if c_align > 0.0 and n_nb > 0:
+        n_nb = 0
+        nb5_a = np.zeros((5, k_n))
+        nb5_m = np.zeros((5, k_n, 3))
+        if aligned:
+            alpha[i, j, :] = m_alpha[i, j, :]
+            mu[i, j, :, :] = m_mu[i, j, :, :]
+            kappa[i, j, :] = m_kappa[i, j, :]
+            n_nb = _neighbours(m_alpha, m_mu, i, j, p_alpha, p_mu, has_parent, nb5_a, nb5_m)
+        else:
+            w = np.empty(nc)
+            cm = np.empty((nc, 3))
+            rb = np.empty(nc)
+            n = _candidates(normals, c_alpha, c_mu, c_rbar, from_normals, i, j, rbar_max, w,
+                            cm, rb)
+            hochbaum_shmoys_init(w, cm, rb, n, alpha[i, j], mu[i, j], kappa[i, j], kappa_max)
+        if not aligned or (c_align > 0.0 and n_nb > 0):
             x = np.empty((b2, 3))
             _gather(normals, level, i, j, x)
-            em_vmf(x, ones, y, alpha[i, j], mu[i, j], kappa[i, j], nb_a[:n_nb], nb_m[:n_nb],
-                   c_align, max_iter, tol, kappa_max, y_out)
+            nb_a = nb5_a[:n_nb].copy()
+            nb_m = nb5_m[:n_nb].copy()
+            em_vmf(x, ones, y, alpha[i, j], mu[i, j], kappa[i, j], nb_a, nb_m,
+                   c_align if aligned else 0.0, max_iter, tol, kappa_max, y_out)
         _finish(alpha[i, j], kappa[i, j], rbar[i, j], kappa_max)
 
 

@@ -80,8 +80,10 @@ def fit_vmf_pyramid(normals: np.ndarray, settings: VMFSettings = VMFSettings(),
         a, mu, ka, rb = (np.zeros((m, m, k_n)), np.zeros((m, m, k_n, 3)),
                          np.zeros((m, m, k_n)), np.zeros((m, m, k_n)))
         c = fits[-1]
-        jit.fit_level_unaligned(normals, lev, *(c[:3] if c else (dummy_a, dummy_m, dummy_a)),
-                                c is None, a, mu, ka, rb, s.max_iter, s.tol, s.kappa_max)
+        ca, cmu, crb = c[:3] if c else (dummy_a, dummy_m, dummy_a)
+        jit.fit_level(normals, lev, False, ca, cmu, crb, c is None, dummy_a, dummy_m, dummy_a,
+                      dummy_a, dummy_m, False, a, mu, ka, rb, 0.0, s.max_iter, s.tol,
+                      s.kappa_max)
         fits.append((a, mu, rb, ka))
         if progress:
             progress(1, f"level {lev} EM")
@@ -99,8 +101,9 @@ def fit_vmf_pyramid(normals: np.ndarray, settings: VMFSettings = VMFSettings(),
         pa, pm = parent if parent is not None else (dummy_a, dummy_m)
         ma, mmu, mka = np.zeros_like(a), np.zeros_like(mu), np.zeros_like(ka)
         jit.match_level(ua, umu, uka, pa, pm, parent is not None, ma, mmu, mka)
-        jit.pull_level(normals, lev, ma, mmu, mka, pa, pm, parent is not None, a, mu, ka, rb,
-                       float(s.align_strength), s.align_iter, s.tol, s.kappa_max)
+        jit.fit_level(normals, lev, True, dummy_a, dummy_m, dummy_a, False, ma, mmu, mka, pa,
+                      pm, parent is not None, a, mu, ka, rb, float(s.align_strength),
+                      s.align_iter, s.tol, s.kappa_max)
         out[lev] = _textures(a, mu, rb)
         parent = (a, mu)
         fits[lev] = None                            # free pass-1 memory as we go
