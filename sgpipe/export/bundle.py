@@ -18,7 +18,7 @@ import sgpipe
 from sgpipe.artifacts import envmap as env_art
 from sgpipe.artifacts import visibility as vis_art
 from sgpipe.errors import BadInput
-from sgpipe.export import dds, gltf, ktx2, normalmaps, prefilter, sh9
+from sgpipe.export import dds, green06, gltf, ktx2, normalmaps, prefilter, sh9
 from sgpipe.io.atomic import file_hash
 
 MARKER = ".sgpipe-export"           # marks a folder this command wrote (safe to replace)
@@ -97,6 +97,10 @@ def _inputs(run_dir: Path) -> dict:
     nm = run_dir / "normalmap"
     for name in normalmaps.map_names(nm):
         files += [p for p in (nm / name / "vmf.npz", nm / name / "baselines.npz") if p.is_file()]
+    tr = run_dir / "transport"
+    if tr.is_dir():
+        files += [p for pat in ("*/gaussians.npz", "*/sh_transfer.npz", "*/geometry.npz")
+                  for p in sorted(tr.glob(pat))]
     vis = run_dir / "visibility"
     if vis.is_dir():
         files += sorted(vis.glob(f"*/{vis_art.GEOMETRY}")) + sorted(
@@ -115,6 +119,7 @@ def build(run_dir: Path, staging: Path, fmt: ktx2.KtxFormat, size: int | None) -
     pyr = load_pyramid(env)
     sh = sh9.sh9_document(env)
     objects = load_objects(run_dir / "visibility")
+    transport = green06.load_transport(run_dir / "transport")
     source_res = arts.raw.shape[1] - 2 * env_art.SAMPLE_BORDER
     size = check_size(size, source_res)
 
@@ -146,7 +151,8 @@ def build(run_dir: Path, staging: Path, fmt: ktx2.KtxFormat, size: int | None) -
             row.append(uri)
         uris.append(row)
     doc, blob = gltf.build_gltf(objects, irradiance=np.asarray(sh["irradiance"]),
-                                specular_uris=uris, specular_size=size, bin_uri=BIN_FILE)
+                                specular_uris=uris, specular_size=size, bin_uri=BIN_FILE,
+                                transport=transport)
     (staging / BIN_FILE).write_bytes(blob)
     (staging / GLTF_FILE).write_text(doc.to_json(indent=1) + "\n")
     normal_maps = normalmaps.export_normal_maps(run_dir / "normalmap", staging)
@@ -157,6 +163,7 @@ def build(run_dir: Path, staging: Path, fmt: ktx2.KtxFormat, size: int | None) -
                     "levels": len(levels)},
             "cubemap_levels": [lv.describe() for lv in levels],
             "gltf": {"file": GLTF_FILE, "objects": [o.name for o in objects],
+                     "green06_objects": [t.name for t in transport],
                      "ibl_levels": [lv.describe() for lv in g_levels]},
             "sh9": {"file": SH9_FILE}, "normal_maps": normal_maps}
 

@@ -74,7 +74,8 @@ class _Builder:
                              target=target)
         self.blob += data.tobytes()
         self.doc.bufferViews.append(view)
-        ctype = gl.UNSIGNED_INT if data.dtype == np.uint32 else gl.FLOAT
+        ctype = {np.dtype(np.uint32): gl.UNSIGNED_INT, np.dtype(np.uint16): gl.UNSIGNED_SHORT,
+                 np.dtype(np.uint8): gl.UNSIGNED_BYTE}.get(data.dtype, gl.FLOAT)
         acc = gl.Accessor(bufferView=len(self.doc.bufferViews) - 1, componentType=ctype,
                           count=int(data.shape[0]), type=kind)
         if minmax:
@@ -120,15 +121,47 @@ def _mesh(b: _Builder, obj: VertexObject) -> gl.Mesh:
         gl.Primitive(attributes=attrs, indices=indices, mode=gl.TRIANGLES)])
 
 
+def _add_green06(b: _Builder, prim: gl.Primitive, mesh: gl.Mesh, t) -> None:
+    """Green06's attributes on `prim` and its tables in `mesh.extras.sgpipe_green06`."""
+    from sgpipe.export import green06
+    for name, (arr, kind) in green06.vertex_attributes(t).items():
+        setattr(prim.attributes, name, b.accessor(arr, kind, gl.ARRAY_BUFFER))
+    acc = {name: b.accessor(arr if kind != "SCALAR" else arr.reshape(-1), kind, None)
+           for name, (arr, kind) in green06.tables(t).items()}
+    mesh.extras = {**(mesh.extras or {}), "sgpipe_green06": green06.extras(t, acc)}
+
+
+def _green06_mesh(b: _Builder, t) -> gl.Mesh:
+    """A mesh of its own for a transport object whose vertices are not a visibility mesh's."""
+    f32 = np.float32
+    attrs = gl.Attributes(
+        POSITION=b.accessor(t.positions.astype(f32), gl.VEC3, gl.ARRAY_BUFFER, minmax=True),
+        NORMAL=b.accessor(t.normals.astype(f32), gl.VEC3, gl.ARRAY_BUFFER))
+    indices = b.accessor(t.faces.astype(np.uint32).reshape(-1), gl.SCALAR,
+                         gl.ELEMENT_ARRAY_BUFFER)
+    return gl.Mesh(name=t.name, primitives=[gl.Primitive(attributes=attrs, indices=indices,
+                                                         mode=gl.TRIANGLES)])
+
+
 def build_gltf(objects: list[VertexObject], *, irradiance: np.ndarray,
                specular_uris: list[list[str]], specular_size: int,
-               bin_uri: str) -> tuple[gl.GLTF2, bytes]:
-    """The glTF document and its binary buffer: one node per object, a scene with the IBL."""
+               bin_uri: str, transport: list | None = None) -> tuple[gl.GLTF2, bytes]:
+    """The glTF document and its binary buffer: one node per object (a transport object whose
+    vertices are a visibility object's shares its mesh), a scene with the IBL."""
     doc = gl.GLTF2(asset=gl.Asset(version="2.0", generator="sgpipe export"))
     b = _Builder(doc)
     for obj in objects:
         doc.meshes.append(_mesh(b, obj))
         doc.nodes.append(gl.Node(name=obj.name, mesh=len(doc.meshes) - 1))
+    by_name = {o.name: (o, m) for o, m in zip(objects, doc.meshes)}
+    for t in transport or []:
+        obj, mesh = by_name.get(t.name, (None, None))
+        if obj is None or obj.positions.shape != t.positions.shape or not np.array_equal(
+                obj.positions.astype(np.float32), t.positions.astype(np.float32)):
+            mesh = _green06_mesh(b, t)
+            doc.meshes.append(mesh)
+            doc.nodes.append(gl.Node(name=f"{t.name} (transport)", mesh=len(doc.meshes) - 1))
+        _add_green06(b, mesh.primitives[0], mesh, t)
     for row in specular_uris:
         for uri in row:
             doc.images.append(gl.Image(uri=uri, mimeType="image/png"))

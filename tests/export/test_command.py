@@ -49,7 +49,8 @@ def _accessor(doc, blob, i):
     acc = doc.accessors[i]
     view = doc.bufferViews[acc.bufferView]
     width = {gl.SCALAR: 1, gl.VEC2: 2, gl.VEC3: 3, gl.VEC4: 4}[acc.type]
-    dtype = np.uint32 if acc.componentType == gl.UNSIGNED_INT else np.float32
+    dtype = {gl.UNSIGNED_INT: np.uint32, gl.UNSIGNED_SHORT: np.uint16,
+             gl.UNSIGNED_BYTE: np.uint8, gl.FLOAT: np.float32}[acc.componentType]
     return np.frombuffer(blob, dtype, acc.count * width, view.byteOffset + (acc.byteOffset or 0)
                          ).reshape(acc.count, width)
 
