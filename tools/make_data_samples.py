@@ -20,6 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import sample_envmaps as env  # noqa: E402
 from canonical import fsum_channels, normalize3  # noqa: E402
 import sample_meshes as meshes  # noqa: E402
+import sample_normalmaps  # noqa: E402
 import sample_readme  # noqa: E402
 from sgpipe.io import read_exr, write_exr, write_png  # noqa: E402
 from sgpipe.io.atomic import atomic_path  # noqa: E402
@@ -204,6 +205,7 @@ def main(argv: list[str] | None = None) -> int:
     info.update(make_envmaps(out))
     _write_text(out / "env_info.json", json.dumps(info, indent=2, sort_keys=True) + "\n")
     facts = {**info, **make_meshes(out), **make_normal_maps(out)}
+    facts.update(sample_normalmaps.make(out))   # Han07 sample: grooves_normal*.png
     _write_text(out / "README.md", sample_readme.render(out, facts))
     return 0
 
