@@ -20,8 +20,10 @@ import click
 def export(run_dir, out_dir, fmt, size):
     """Export RUN_DIR (the --out folder of `sgpipe run`) for real-time engines: the
     prefiltered environment as KTX2 and DDS cubemaps with every mip indexed by GGX roughness
-    (roughness = level / (levels - 1)), SH9 irradiance as JSON, and a glTF with an
-    EXT_lights_image_based light and the SSDF PCA coefficients as vertex attributes."""
+    (roughness = level / (levels - 1)), SH9 irradiance as JSON, a glTF with an
+    EXT_lights_image_based light and the SSDF PCA coefficients (and Green06 transport) as
+    vertex attributes, and the normalmap stage's vMF / roughness MIP chains as 2-D KTX2 and
+    DDS textures. docs/EXPORT.md describes every file."""
     from sgpipe.export.bundle import write_export
     out = write_export(run_dir, out_dir, fmt=fmt, size=size)
     click.echo(f"export: {out}")
