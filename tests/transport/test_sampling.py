@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from sgpipe.brdf import make_brdf
-from sgpipe.core.sphere import tangent_frame, to_world
+from sgpipe.core.sphere import tangent_frame
 from sgpipe.transport.sampling import light_cube, vertex_transport, vertex_visibility
 from sgpipe.transport.sh_transfer import clamped_cosine_sh, texel_basis, transfer_vector
 from sgpipe.transport.views import view_set
