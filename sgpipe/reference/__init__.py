@@ -47,7 +47,7 @@ from sgpipe.reference.driver import (TILE, ReferenceResult, render_reference,
                                      render_reference_result)
 from sgpipe.reference.pixel_filter import FILTER_TYPES, PixelFilter
 from sgpipe.reference.sampler import EnvSampler
-from sgpipe.reference.shading import normalize_lights
+from sgpipe.reference.lights import normalize_lights
 from sgpipe.reference.surface import ObjectMaps
 
 __all__ = ["render_reference", "render_reference_result", "ReferenceResult", "EnvSampler",

@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from sgpipe.reference.sampler import EnvSampler
-from sgpipe.reference.shading import _CACHE, _material_key, normalize_lights, shade_tile
+from sgpipe.reference.lights import normalize_lights
+from sgpipe.reference.shading import _CACHE, _material_key, shade_tile
 
 TILE = 32
 _MIN_SAMPLES_PER_PROCESS_POOL = 4_000_000  # pixel-samples; below this `workers=None` uses 1

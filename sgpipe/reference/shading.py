@@ -9,7 +9,7 @@ import pickle
 import numpy as np
 
 from sgpipe.reference import _sampling_jit as jit
-from sgpipe.reference.lights import light_samples, normalize_lights  # noqa: F401 (re-export)
+from sgpipe.reference.lights import light_samples
 from sgpipe.reference.sampler import EnvSampler
 
 _ROWS_PER_PASS = 1 << 16  # sample rows per numpy batch inside a tile
