@@ -125,15 +125,40 @@ def sgpipe_envmap_eval(latlong: np.ndarray, dirs: np.ndarray) -> np.ndarray:
 def envmap_for_mitsuba(latlong: np.ndarray, factor: int = 4) -> np.ndarray:
     """A bitmap on which Mitsuba's bilinear, row-vertex-centred lookup reproduces sgpipe's
     piecewise-constant map: each texel repeated `factor`× in u (texel-centred columns: the
-    ramp between two copies is centred on the texel edge, so column integrals are exact) and
-    the rows resampled at Mitsuba's row positions v = r/(factor·H − 1) (the ramp across a row
-    edge is off-centre by at most 1/(2·factor) texel, at the poles)."""
+    linear ramp between two copies is centred on the texel edge, so every φ-integral is exact)
+    and, in v, Mitsuba's rows r at v_r = r/(factor·H − 1) set to the hat-weighted mean of the
+    map over [v_{r−1}, v_{r+1}] (weight hat × sin θ). Nearest-row values would put each ramp up
+    to 1/(2·factor) texel off the texel edge, always towards the pole (on data_samples/studio.exr
+    at factor 4: −0.03 / −0.09 / −0.07 % of the irradiance at +Y); hat means keep the ramps
+    centred (+0.001 %). Away from row edges (more than one resampled row) values are exact."""
     h, w = latlong.shape[:2]
-    cols = np.repeat(latlong, factor, axis=1)
-    hh = factor * h
-    v = np.arange(hh) / (hh - 1)
-    rows = np.minimum((v * h).astype(int), h - 1)
-    return np.ascontiguousarray(cols[rows], np.float32)
+    cols = np.repeat(np.asarray(latlong, np.float64), factor, axis=1)
+    return np.ascontiguousarray(np.tensordot(_row_weights(h, factor * h), cols, axes=(1, 0)),
+                                np.float32)
+
+
+def _row_weights(h: int, hh: int, sub: int = 64) -> np.ndarray:
+    """(hh, h): weight of sgpipe row i in Mitsuba row r, ∫ hat_r(v) sin(πv) 1_i(v) dv
+    normalised per r (midpoint rule, `sub` points per resampled row interval)."""
+    dv = 1.0 / (hh - 1)
+    t = (np.arange(sub) + 0.5) / sub                        # within one interval
+    out = np.zeros((hh, h))
+    for r in range(hh):
+        for side in (-1, 1):
+            lo = r if side > 0 else r - 1
+            if lo < 0 or lo >= hh - 1:
+                continue
+            v = (lo + t) * dv
+            hat = 1.0 - np.abs(v - r * dv) / dv
+            wgt = hat * np.sin(np.pi * v)
+            rows = np.minimum((v * h).astype(int), h - 1)
+            np.add.at(out[r], rows, wgt)
+        tot = out[r].sum()
+        if tot > 0:
+            out[r] /= tot
+        else:                                               # never: hats reach inside
+            out[r, min(int(r * dv * h), h - 1)] = 1.0
+    return out
 
 
 # --- shapes ----------------------------------------------------------------------------------
