@@ -54,7 +54,9 @@ def _image(path, key) -> np.ndarray:
 def _read_ldr(path, key) -> np.ndarray:
     """8/16-bit images (PNG) as linear values in [0, 1] (no sRGB decoding: data textures)."""
     import OpenImageIO as oiio
-    inp = oiio.ImageInput.open(str(path))
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)   # data textures: alpha must not scale RGB
+    inp = oiio.ImageInput.open(str(path), config)
     if inp is None:
         raise BadInput(f"unreadable image ({oiio.geterror().strip()})", file=path, key=key)
     try:
