@@ -123,7 +123,8 @@ def _run(cfg, run: StageRun, tmp: Path, geoms, materials) -> None:
                          desc="transport: sampling + fitting")
     wall = time.perf_counter() - t0
     cpu = sum(r.cpu_s for r in results)
-    fitted = n_vert * 92 * t.gaussians
+    # Gaussians of vertices that have glossy transport (diffuse-only vertices are skipped)
+    fitted = sum(r.fitted for r in results) * 92 * t.gaussians
     run.timings.update(wall_s=wall, worker_cpu_s=cpu,
                        worker_transport_s=sum(r.transport_s for r in results),
                        worker_fit_s=sum(r.fit_s for r in results),

@@ -87,6 +87,7 @@ class TransportResult:
     rel_err: np.ndarray     # (n,) relative L2 error of the fit on the active views
     iters: np.ndarray       # (n,)
     visible: np.ndarray     # (n,) fraction of the upper-hemisphere light texels unoccluded
+    fitted: int = 0         # vertices with glossy transport (the others have zero weights)
     transport_s: float = 0.0
     fit_s: float = 0.0
     cpu_s: float = 0.0
@@ -114,6 +115,14 @@ def run_chunk(task: TransportTask) -> TransportResult:
         up = cube.dirs @ nrm > 0
         res.visible[i] = vis[up].mean() if up.any() else 0.0
         t1 = time.perf_counter()
+        if not T.any():
+            # no glossy transport at all (a diffuse material, a fully shadowed vertex): zero
+            # weights, nothing stored; not a flood-fill start for its neighbours
+            res.mu[i] = views[:, None, :]
+            res.sigma[i] = task.opts.sigma_max
+            res.fit_s += time.perf_counter() - t1
+            res.transport_s += t1 - t0
+            continue
         rows = [done[u] for u in task.neighbours[i] if u in done][:MAX_SPATIAL_NEIGHBOURS]
         nb_means = res.mu[rows] if rows and K > 1 else None
         prob = VertexProblem(T, active, cube.dirs, cube.omega, task.opts, nrm, nb_means)
@@ -124,6 +133,7 @@ def run_chunk(task: TransportTask) -> TransportResult:
         else:
             start = init_params(prob)
         fit = fit_vertex(prob, start)
+        res.fitted += 1
         res.mu[i], res.sigma[i], res.w[i] = fit.mu, fit.sigma, fit.w
         res.rel_err[i], res.iters[i] = fit.rel_err, fit.iters
         done[int(task.order[i])] = i

@@ -162,6 +162,10 @@ def fit_vertex(prob: VertexProblem, start=None) -> VertexFit:
     o = prob.opts
     mu, s, w = start if start is not None else init_params(prob)
     mu, s = mu.copy(), s.copy()
+    if prob.energy == 0.0:
+        # no glossy transport in any view (a diffuse material, a fully occluded vertex): all
+        # weights are zero and nothing of this vertex is stored or rendered
+        return VertexFit(mu, np.exp(s), np.zeros_like(w), 0.0, 0.0, 0)
     w = np.where(prob.active[:, None, None], w, 0.0)
     if o.independent_start:
         K_.fit_views_independently(prob.T, prob.active, prob.dirs, prob.omega, prob.av, mu, s,
