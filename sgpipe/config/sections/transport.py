@@ -19,8 +19,9 @@ class TransportSection:
                                "on (6·res² light texels; Green06 used 6×16²). One of "
                                "4, 8, 16, 32, 64.", 16)
     gaussians: int = doc("Gaussians per vertex per view (Green06 favours 1).", 1, ge=1, le=3)
-    alpha: float = doc("Weight α of the data term D (eq 7, normalised by the vertex's mean "
-                       "squared transport, so the weights are unitless).", 1.0, gt=0)
+    alpha: float = doc("Weight α of the data term D (eq 7; each view's term is normalised by "
+                       "that view's squared transport, so the weights are unitless).", 1.0,
+                       gt=0)
     beta: float = doc("Weight β of the mean coherence term M across neighbouring views "
                       "(eq 8; radians² of mean jumps).", 0.05, ge=0)
     gamma: float = doc("Weight γ of the σ coherence term V across neighbouring views (eq 9).",
