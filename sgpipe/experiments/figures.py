@@ -34,6 +34,8 @@ WARD_ALPHAS = (0.01, 0.05, 0.1, 0.15, 0.2)
 METHODS = ("fis", "sg", "gmm", "gmm1")
 # table column → (render method, extra render keys): gmm1 = Töral19's single MIP lookup
 VARIANTS = {"gmm1": ("gmm", {"gmm_taps": 1})}
+# the real-time methods' sub-pixel grid: whole frames then compare with the box-filtered reference
+SUPERSAMPLE = 3
 ENVS = {"sky_sun": 0.0, "studio": -1.0}  # environment -> preview exposure (stops)
 
 
@@ -159,7 +161,8 @@ def run_env(env: str, out: Path, mats: list[dict], *, size: int, spp: int, seed:
         for meth in methods:
             stage_meth, extra = VARIANTS.get(meth, (meth, {}))
             cfg = build_config(env_path, mats, m["name"], [stage_meth], size=size, spp=spp,
-                               seed=seed, workers=workers, render_extra=extra)
+                               seed=seed, workers=workers,
+                               render_extra={"supersample": SUPERSAMPLE, **extra})
             r = _render_method(cfg, out, stage_meth)
             if "image" in r:
                 r.update(compare_images(r["image"], ref["image"], exposure=ENVS.get(env, 0.0),
@@ -204,7 +207,7 @@ def main(argv: list[str] | None = None) -> int:
             shutil.copyfile(a.out / name, fig_dir / name)
             sheets.append((env, fam, f"figures/{name}"))
     write_results_md(a.results, per_env, mats, METHODS, sheets, size=a.size, spp=a.spp,
-                     seed=a.seed, seconds=time.perf_counter() - t0,
+                     seed=a.seed, seconds=time.perf_counter() - t0, supersample=SUPERSAMPLE,
                      command="python -m sgpipe.experiments.figures " + " ".join(
                          sys.argv[1:] if argv is None else argv))
     print(f"[figures] wrote {a.results} and {len(sheets)} contact sheets in {a.out}",

@@ -107,7 +107,8 @@ def _display_tables(res: dict, mats: list[dict], methods) -> list[str]:
 
 
 def write_results_md(path: Path, per_env: dict, mats: list[dict], methods, sheets, *,
-                     size: int, spp: int, seed: int, seconds: float, command: str) -> Path:
+                     size: int, spp: int, seed: int, seconds: float, command: str,
+                     supersample: int = 1) -> Path:
     """docs/RESULTS.md: settings, PSNR / SSIM / ms-per-frame tables, sheets, missing methods."""
     L = ["# Results — Töral19's experiment (spheres, Ward / anisotropic Ward, Beckmann, GGX)",
          "",
@@ -117,11 +118,14 @@ def write_results_md(path: Path, per_env: dict, mats: list[dict], methods, sheet
          f"fov 32°, {size}×{size} pixels, black background (PSNR/SSIM are over the whole "
          f"frame; the sphere covers ≈{100 * _coverage(16.0, 4.0):.0f}% of it). "
          f"Materials: kd = 0, ks = 1, no Fresnel. `reference` = Monte Carlo with MIS, "
-         f"{spp} spp, seed {seed}. Metrics as `sgpipe compare` reports them (sgpipe.metrics): "
+         f"{spp} spp, seed {seed}, box pixel filter; the real-time methods are "
+         f"{supersample}×{supersample} supersampled (`render.supersample`), so whole frames "
+         f"compare. Metrics as `sgpipe compare` reports them (sgpipe.metrics): "
          "display PSNR = 10 log10(255²/MSE) of the 8-bit sRGB previews, ꟻLIP = NVIDIA's "
          "flip-evaluator, relMSE = mean (x−r)²/(r²+0.01); linear PSNR = 10 log10(peak²/MSE) "
          f"on linear RGB radiance, peak {PSNR_PEAK:g}; SSIM on luminance (Gaussian σ = 1.5). "
-         "ms/frame: the render stage's warm per-frame time (`<method>_s` in timings.json); for "
+         "ms/frame: the render stage's warm per-frame time (`<method>_s` in timings.json; "
+         "the supersampled frame); for "
          "`reference` the whole Monte Carlo render. `Ref. noise` = PSNR of the reference's own "
          "Monte Carlo error, 10 log10(peak²/mean stderr²) (display: first-order estimate "
          "through the preview transform): PSNRs near it are noise-limited. With the sun "
