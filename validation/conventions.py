@@ -122,18 +122,22 @@ def sgpipe_envmap_eval(latlong: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     return latlong[i, j]
 
 
-def envmap_for_mitsuba(latlong: np.ndarray, factor: int = 4) -> np.ndarray:
+def envmap_for_mitsuba(latlong: np.ndarray, factor: int = 4,
+                       factor_v: int | None = None) -> np.ndarray:
     """A bitmap on which Mitsuba's bilinear, row-vertex-centred lookup reproduces sgpipe's
     piecewise-constant map: each texel repeated `factor`× in u (texel-centred columns: the
-    linear ramp between two copies is centred on the texel edge, so every φ-integral is exact)
-    and, in v, Mitsuba's rows r at v_r = r/(factor·H − 1) set to the hat-weighted mean of the
-    map over [v_{r−1}, v_{r+1}] (weight hat × sin θ). Nearest-row values would put each ramp up
-    to 1/(2·factor) texel off the texel edge, always towards the pole (on data_samples/studio.exr
-    at factor 4: −0.03 / −0.09 / −0.07 % of the irradiance at +Y); hat means keep the ramps
-    centred (+0.001 %). Away from row edges (more than one resampled row) values are exact."""
+    linear ramp between two copies is centred on the texel edge, so every φ-integral is exact;
+    an edge is blurred by ±1/(2·factor) texel) and, in v, `factor_v`·H rows (default `factor`)
+    at Mitsuba's v_r = r/(factor_v·H − 1), each the hat-weighted mean of the map over
+    [v_{r−1}, v_{r+1}] (weight hat × sin θ): the ramps stay centred on the row edges, which are
+    blurred by ±2/factor_v texel. Nearest-row values would put each ramp up to 1/(2·factor_v)
+    texel off the edge, always towards the pole (on data_samples/studio.exr at 4: −0.03 /
+    −0.09 / −0.07 % of the irradiance at +Y; hat means: +0.001 %). Values more than two
+    resampled rows from a row edge are exact."""
     h, w = latlong.shape[:2]
+    kv = int(factor_v or factor)
     cols = np.repeat(np.asarray(latlong, np.float64), factor, axis=1)
-    return np.ascontiguousarray(np.tensordot(_row_weights(h, factor * h), cols, axes=(1, 0)),
+    return np.ascontiguousarray(np.tensordot(_row_weights(h, kv * h), cols, axes=(1, 0)),
                                 np.float32)
 
 

@@ -110,7 +110,7 @@ def mean_ratio(img, mi_a, mi_b, stderr, mask) -> tuple[float, float]:
 
 
 def run_scene(path: Path, *, mode: str, spp_sgpipe: int | None = None, spp_mitsuba: int = 4096,
-              size: int | None = None, env_factor: int = 4, log=print) -> SceneResult:
+              size: int | None = None, env_factor=None, log=print) -> SceneResult:
     """Render one scene config with both renderers and compare (module docstring)."""
     from sgpipe.metrics import compare_images, display_psnr
     from validation import mitsuba_scene as ms
@@ -125,7 +125,7 @@ def run_scene(path: Path, *, mode: str, spp_sgpipe: int | None = None, spp_mitsu
     ref = render_sgpipe(cfg, mode)
     t_sg = time.perf_counter() - t0
     t0 = time.perf_counter()
-    scene = ms.load_scene(cfg, env_factor=env_factor, centre=mode == "centre")
+    scene = ms.load_scene(cfg, env_factor=env_factor or ms.ENV_FACTOR, centre=mode == "centre")
     half = max(1, spp_mitsuba // 2)
     render = ms.render_filter if mode == "filter" else ms.render_centre
     mi_a = render(scene, half, seed=1)
