@@ -8,8 +8,10 @@ from pathlib import Path
 from sgpipe.config.schema import doc
 from sgpipe.config.sections.envmap import EnvmapSection
 from sgpipe.config.sections.fit import FitSection
+from sgpipe.config.sections.normalmap import NormalmapSection
 from sgpipe.config.sections.render import RenderSection
 from sgpipe.config.sections.scene import SceneSection
+from sgpipe.config.sections.transport import TransportSection
 from sgpipe.config.sections.visibility import VisibilitySection
 
 
@@ -29,6 +31,10 @@ class Config:
     fit: FitSection | None = doc("Materials to fit into lobe representations.", None)
     envmap: EnvmapSection | None = doc("Environment-map prefiltering and light fits.", None)
     visibility: VisibilitySection | None = doc("Per-vertex visibility, SSDF and PCA.", None)
+    normalmap: NormalmapSection | None = doc("Han07 normal-map filtering (vMF / SH pyramids, "
+                                             "baselines) of the scene's normal maps.", None)
+    transport: TransportSection | None = doc("Green06 per-vertex, per-view transport fitted "
+                                             "with Gaussians, and SH diffuse transfer.", None)
     render: RenderSection | None = doc("Images to render and compare.", None)
     source: Path | None = field(default=None, repr=False, compare=False,
                                 metadata={"doc": "(internal) the config file", "internal": True})
