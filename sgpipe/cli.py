@@ -142,7 +142,8 @@ def fit(config, out_dir, overrides, force):
 @cli.command()
 @_config_options
 def precompute(config, out_dir, overrides, force):
-    """Prefilter the environment (`envmap:`) and trace visibility (`visibility:`)."""
+    """Prefilter the environment (`envmap:`), trace visibility (`visibility:`), filter normal
+    maps (`normalmap:`, Han07) and fit view-dependent transport (`transport:`, Green06)."""
     _run_stages(["precompute"], config, out_dir, overrides, force)
 
 
