@@ -10,7 +10,6 @@ import numpy as np
 
 from sgpipe.errors import BadInput
 from sgpipe.io import read_npz
-from sgpipe.transport import compact
 
 GAUSSIANS = "gaussians.npz"
 SH_TRANSFER = "sh_transfer.npz"
@@ -43,14 +42,14 @@ def write_object(sink, obj: str, *, packed: dict, cube_resolution: int, gaussian
 
 
 # -- readers (the renderer, tests) -------------------------------------------------------------
-def read_gaussians(folder: str | Path, obj: str):
-    """(mu (X, 92, K, 3), sigma (X, 92, K) radians, w (X, 92, K, 3), stored (X, 92) bool)."""
+def read_packed_gaussians(folder: str | Path, obj: str) -> dict:
+    """The compact arrays of gaussians.npz as written (`sgpipe.transport.compact.decode` turns
+    them into mu, sigma, w, stored; `sgpipe.transport.compact.read_gaussians` does both)."""
     path = Path(folder) / object_file(obj, GAUSSIANS)
     if not path.is_file():
         raise BadInput("transport artifact not found (run `sgpipe precompute`)", file=path,
                        key=f"transport.{obj}")
-    arrays = read_npz(path)
-    return compact.decode(arrays)
+    return read_npz(path)
 
 
 def read_sh_transfer(folder: str | Path, obj: str) -> tuple[np.ndarray, np.ndarray]:
@@ -61,4 +60,4 @@ def read_sh_transfer(folder: str | Path, obj: str) -> tuple[np.ndarray, np.ndarr
 
 
 __all__ = ["GAUSSIANS", "SH_TRANSFER", "GEOMETRY", "REPORT", "object_file", "write_object",
-           "read_gaussians", "read_sh_transfer"]
+           "read_packed_gaussians", "read_sh_transfer"]

@@ -108,3 +108,10 @@ def paper_bytes(vertices: int, gaussians: int) -> int:
 
 __all__ = ["oct_encode", "oct_decode", "sigma_encode", "sigma_decode", "encode", "decode",
            "nbytes", "paper_bytes", "MASK_BYTES"]
+
+
+def read_gaussians(folder, obj: str):
+    """(mu (X, 92, K, 3), sigma (X, 92, K) radians, w (X, 92, K, 3), stored (X, 92) bool) of one
+    object's transport artifact."""
+    from sgpipe.artifacts.transport import read_packed_gaussians
+    return decode(read_packed_gaussians(folder, obj))

@@ -12,6 +12,7 @@ import pytest
 from sgpipe.artifacts import transport as contract
 from sgpipe.config import load_config
 from sgpipe.errors import BadInput
+from sgpipe.transport import compact
 from sgpipe.stages import transport as stage
 
 CONFIG = """
@@ -60,7 +61,7 @@ def test_artifacts_report_and_determinism(tmp_path):
         for name in (contract.GAUSSIANS, contract.SH_TRANSFER, contract.GEOMETRY):
             a = (out1 / "transport" / obj / name).read_bytes()
             assert a == (out2 / "transport" / obj / name).read_bytes(), (obj, name)
-        mu, sigma, w, stored = contract.read_gaussians(out1 / "transport", obj)
+        mu, sigma, w, stored = compact.read_gaussians(out1 / "transport", obj)
         assert mu.shape == (nv, 92, 1, 3) and stored.any()
         sh, fd = contract.read_sh_transfer(out1 / "transport", obj)
         assert sh.shape == (nv, 25) and np.allclose(fd, np.array([0.2, 0.1, 0.05]) / np.pi)
