@@ -1,0 +1,130 @@
+"""Device buffers of the `transport` method (Green06 §5): per object its fitted Gaussians
+(`sgpipe.transport.compact.read_gaussians`), SH transfer vectors and diffuse f_d from
+`<out>/transport/<object>/`, the environment's SH light coefficients (`<out>/envmap/light_sh.npz`)
+and the 92-view tables of `views.nearest_views`, keyed by the kernel's parameter names
+(`methods.TRANSPORT_PARAMS`, layouts in kernels/include/transport.h)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from sgpipe.errors import BadInput
+
+#: Gaussians per vertex and view the kernel blends (transport.h TP_MAX_K)
+MAX_GAUSSIANS = 3
+#: SH coefficients per transfer vector (5th order, sgpipe.transport.sh_transfer)
+SH_COEFFS = 25
+
+
+def view_tables() -> tuple[np.ndarray, np.ndarray]:
+    """(vinv (180·3, 4) float32: per hull face the rows of M⁻¹, M = [a b c] its views as
+    columns; vtri (180, 4) int32: the face's view indices) in views.view_set's face order."""
+    from sgpipe.transport.views import view_set
+    dirs, tri, _, _ = view_set()
+    M = np.stack([dirs[tri[:, 0]], dirs[tri[:, 1]], dirs[tri[:, 2]]], axis=-1)
+    inv = np.linalg.inv(M)                                  # (F, 3, 3)
+    vinv = np.zeros((len(tri), 3, 4), np.float32)
+    vinv[..., :3] = inv
+    vtri = np.zeros((len(tri), 4), np.int32)
+    vtri[:, :3] = tri
+    return vinv.reshape(-1, 4), vtri
+
+
+def pack_gaussians(mu, sigma, w) -> np.ndarray:
+    """mu (X, 92, K, 3), sigma (X, 92, K), w (X, 92, K, 3) → (X·92·K·2, 4) float32 records
+    (μ.xyz, σ), (w.rgb, 0) at ((x·92 + view)·K + k)·2."""
+    X, V, K = sigma.shape
+    rec = np.zeros((X, V, K, 2, 4), np.float32)
+    rec[..., 0, :3] = mu
+    rec[..., 0, 3] = sigma
+    rec[..., 1, :3] = w
+    return rec.reshape(-1, 4)
+
+
+def transport_arrays(objects: list, light_sh: np.ndarray) -> dict:
+    """Kernel arrays for per-object data `objects` (None, or dict with mu, sigma, w, transfer
+    (X, 25), diffuse_rgb (3,), faces (F, 3)) and SH light coefficients (n, 3)."""
+    rows, faces, gauss, sh, fd = [], [], [], [], []
+    v0 = f0 = 0
+    K = max([o["sigma"].shape[2] for o in objects if o is not None] or [1])
+    for o in objects:
+        if o is None:
+            rows.append((0, 0, 0, 0))
+            fd.append(np.zeros(4, np.float32))
+            continue
+        X = len(o["transfer"])
+        k = o["sigma"].shape[2]
+        mu, sigma, w = o["mu"], o["sigma"], o["w"]
+        if k < K:      # pad to the scene's K with zero-weight Gaussians (skipped by the kernel)
+            pad = lambda a: np.concatenate([a, np.zeros(a.shape[:2] + (K - k,) + a.shape[3:])], 2)
+            mu, sigma, w = pad(mu), pad(sigma), pad(w)
+        rows.append((v0, f0, K, 1))
+        faces.append(np.asarray(o["faces"], np.int32).reshape(-1))
+        gauss.append(pack_gaussians(mu, sigma, w))
+        sh.append(np.asarray(o["transfer"], np.float32).reshape(-1))
+        fd.append(np.append(np.asarray(o["diffuse_rgb"], np.float32), 0.0))
+        v0 += X
+        f0 += len(o["faces"])
+    if K > MAX_GAUSSIANS:
+        raise BadInput(f"{K} Gaussians per view; the transport method blends at most "
+                       f"{MAX_GAUSSIANS}", key="transport.gaussians")
+    cat = lambda parts, dt, w=1: (np.concatenate(parts).astype(dt) if parts
+                                  else np.zeros((1, w) if w > 1 else 1, dt))
+    L = np.zeros((SH_COEFFS, 4), np.float32)
+    n_sh = min(len(light_sh), SH_COEFFS)
+    L[:n_sh, :3] = light_sh[:n_sh]
+    vinv, vtri = view_tables()
+    return dict(tp_obj=np.asarray(rows, np.int32), tp_faces=cat(faces, np.int32),
+                tp_gauss=cat(gauss, np.float32, 4), tp_sh=cat(sh, np.float32),
+                tp_fd=np.asarray(fd, np.float32), tp_light_sh=L, tp_sh_n=n_sh,
+                tp_vinv=vinv, tp_vtri=vtri)
+
+
+def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
+    """Per scene object its transport data (dicts of `transport_arrays`) read from
+    `<out>/transport/`. The kernel indexes them with the frame's SSDF-mesh triangles, so each
+    object's transport mesh must be its visibility mesh (`ssdf_faces`, per object or None)."""
+    from sgpipe.artifacts.transport import GEOMETRY, object_file, read_sh_transfer
+    from sgpipe.io import read_npz
+    from sgpipe.transport.compact import read_gaussians
+    folder = Path(out_dir) / "transport"
+    if cfg.transport is None or not (folder / "manifest.json").is_file():
+        raise BadInput("the transport method needs the transport stage's artifacts (a "
+                       "`transport:` section and `sgpipe precompute`)", file=folder,
+                       key="transport")
+    out = []
+    for k, spec in enumerate(cfg.scene.objects):
+        mu, sigma, w, _ = read_gaussians(folder, spec.name)
+        transfer, fd = read_sh_transfer(folder, spec.name)
+        faces = read_npz(folder / object_file(spec.name, GEOMETRY))["faces"]
+        ref = ssdf_faces[k]
+        if ref is None or np.shape(ref) != np.shape(faces) or not np.array_equal(ref, faces):
+            raise BadInput("the transport mesh differs from the visibility mesh the frame's "
+                           "triangles index (set transport.sphere_subdivisions = "
+                           "visibility.sphere_subdivisions; the transport method needs a "
+                           "`visibility:` section)", file=folder / spec.name,
+                           key="transport.sphere_subdivisions")
+        out.append(dict(mu=mu, sigma=sigma, w=w, transfer=transfer, diffuse_rgb=fd, faces=faces))
+    return out
+
+
+def attach_transport(renderer, cfg, out_dir: str | Path, vis_objects: list) -> None:
+    """Upload the transport method's arrays into `renderer.static` (by parameter name)."""
+    from sgpipe.artifacts.envmap import read_light_sh
+    from sgpipe.render import opencl
+    env_dir = Path(out_dir) / "envmap"
+    light = (np.zeros((SH_COEFFS, 3)) if cfg.envmap is None
+             else np.asarray(read_light_sh(env_dir)["coeffs"], np.float64))
+    objs = load_transport_objects(cfg, out_dir, [None if v is None else v.faces
+                                                 for v in vis_objects])
+    arrays = transport_arrays(objs, light)
+    for name, a in arrays.items():
+        if isinstance(a, np.ndarray):
+            arrays[name] = opencl.to_device(renderer.ctx, a, dtype=a.dtype)
+    renderer.static.update(arrays)
+
+
+__all__ = ["MAX_GAUSSIANS", "view_tables", "pack_gaussians", "transport_arrays",
+           "load_transport_objects", "attach_transport"]
