@@ -113,18 +113,21 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
 def attach_transport(renderer, cfg, out_dir: str | Path, vis_objects: list) -> None:
     """Upload the transport method's arrays into `renderer.static` (by parameter name)."""
     from sgpipe.artifacts.envmap import read_light_sh
-    from sgpipe.render import opencl
     env_dir = Path(out_dir) / "envmap"
     light = (np.zeros((SH_COEFFS, 3)) if cfg.envmap is None
              else np.asarray(read_light_sh(env_dir)["coeffs"], np.float64))
     objs = load_transport_objects(cfg, out_dir, [None if v is None else v.faces
                                                  for v in vis_objects])
-    arrays = transport_arrays(objs, light)
-    for name, a in arrays.items():
-        if isinstance(a, np.ndarray):
-            arrays[name] = opencl.to_device(renderer.ctx, a, dtype=a.dtype)
-    renderer.static.update(arrays)
+    upload_transport(renderer, transport_arrays(objs, light))
+
+
+def upload_transport(renderer, arrays: dict) -> None:
+    """Put `transport_arrays`' output on the renderer's device, into `renderer.static`."""
+    from sgpipe.render import opencl
+    dev = {k: opencl.to_device(renderer.ctx, a, dtype=a.dtype) if isinstance(a, np.ndarray)
+           else a for k, a in arrays.items()}
+    renderer.static.update(dev)
 
 
 __all__ = ["MAX_GAUSSIANS", "view_tables", "pack_gaussians", "transport_arrays",
-           "load_transport_objects", "attach_transport"]
+           "load_transport_objects", "attach_transport", "upload_transport"]
