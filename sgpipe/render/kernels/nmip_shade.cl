@@ -1,11 +1,14 @@
 /* Method `normals_mip`: Han07 normal-map filtering under point / directional lights
- * (kernels/include/nm_shade.h; filter 1: 0 vMF mixture, 1 normalised MIP, 2 Toksvig). */
+ * (kernels/include/nm_shade.h; NM_FILTER 1: 0 vMF mixture, 1 normalised MIP, 2 Toksvig). */
 #include "sg.h"
 #include "ssdf.h"
 #include "cubemap.h"
 #include "microfacet.h"
 #include "shading.h"
-#define NM_FILTER 1
-#define NM_KERNEL nmip_shade
-#define NM_ARGS NMIP_SHADE_ARGS
 #include "nm_shade.h"
+#define NM_FILTER 1
+
+__kernel void nmip_shade(NMIP_SHADE_ARGS)
+{
+#include "nm_shade_body.h"
+}

@@ -1,0 +1,77 @@
+/* Body of the vmf / normals_mip / toksvig kernels (included inside each __kernel function;
+ * NM_FILTER selects the filter, nm_shade.h documents the shading). */
+    SHADE_PIXEL_PROLOGUE;
+    int obj = gobj[gid];
+    int4 info = nm_info[obj];
+    float s = nm_brdf[4 * obj];
+    float3 o = normalize(to_world(lift(to_local(gview[gid].xyz, T, B, N), 0.01f), T, B, N));
+
+    /* MIP level from the footprint (clamped to the pyramid), trilinear weights */
+    int l0 = 0, l1 = 0;
+    float f = 0.0f;
+    if (info.w) {
+        float4 duv = gduv[gid];
+        float len = fmax(length(duv.xy), length(duv.zw)) * (float)nm_levels[info.x].y;
+        float lod = clamp(log2(fmax(len, 1e-18f)), 0.0f, (float)(info.y - 1));
+        l0 = (int)floor(lod);
+        l1 = min(l0 + 1, info.y - 1);
+        f = lod - (float)l0;
+        l0 += info.x; l1 += info.x;
+    }
+    float3 mean_t = info.w ? nm_trilinear(nm_data, nm_levels, l0, l1, f, 0, 0, 1, px.uv).xyz
+                           : (float3)(0.0f, 0.0f, 1.0f);
+    float3 mean = to_world(mean_t, T, B, N);
+    float rl = length(mean);
+    float3 nbar = rl > 0.0f ? mean / rl : N;
+
+    float3 acc = (float3)(0.0f);
+    if (!(flags & FLAG_NO_ENV_DIFFUSE)) {
+        /* the environment's diffuse part about the filtered normal (sg's SG-light sum) */
+        q = quat_from_z(normalize(to_local(nbar, T, B, N)));
+        qi = quat_conj(q);
+        op = lift(normalize(quat_rotate(qi, lift(to_local(o, T, B, N), 0.01f))), 0.01f);
+        acc += diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, &vis);
+    }
+    for (int k = 0; k < n_lights; ++k) {
+        float4 a = lights[2 * k], b = lights[2 * k + 1];
+        float3 i, E;
+        if (a.w < 0.5f) {
+            float3 d = a.xyz - x;
+            float d2 = fmax(dot(d, d), 1e-12f);
+            i = d * rsqrt(d2);
+            E = b.xyz / d2;
+        } else {
+            i = normalize(a.xyz);
+            E = b.xyz;
+        }
+        if (dot(i, N) <= 0.0f) continue;
+        float spec = 0.0f, diff;
+#if NM_FILTER == NM_VMF
+        diff = fmax(dot(mean, i), 0.0f);
+        if (!info.w) {
+            spec = nm_blinn(N, o, i, s, (s + 2.0f) * 0.125f * MF_INV_PI);
+        } else {
+            for (int j = 0; j < info.z; ++j) {
+                float4 t = nm_trilinear(nm_data, nm_levels, l0, l1, f, info.z, j, 0, px.uv);
+                if (t.x <= 0.0f) continue;
+                float3 r = t.yzw / t.x;
+                float lr = length(r);
+                if (lr <= 0.0f) continue;
+                float kappa = lr >= 1.0f ? 1e30f : (3.0f * lr - lr * lr * lr) / (1.0f - lr * lr);
+                float sp = kappa * s / (kappa + s);                         /* eq 20 */
+                float3 mu = normalize(to_world(r / lr, T, B, N));
+                float norm = 0.25f * (s + 2.0f) / (s + 1.0f) * (sp + 1.0f) * NM_INV_2PI;
+                spec += t.x * nm_blinn(mu, o, i, sp, norm);
+            }
+        }
+#else
+        float e = s;
+#if NM_FILTER == NM_TOKSVIG
+        if (info.w) e = s * rl / (rl + s * (1.0f - rl));
+#endif
+        diff = fmax(dot(nbar, i), 0.0f);
+        spec = nm_blinn(nbar, o, i, e, (e + 2.0f) * 0.125f * MF_INV_PI);
+#endif
+        acc += (px.kd * (diff * MF_INV_PI) + px.ks * spec) * E;
+    }
+    out[gid] = (float4)(acc, 1.0f);
