@@ -9,7 +9,7 @@ rows (row 0 = v = 1) then lobe j: (α_j, α_j·r_j) — eq 24's linear textures,
 κ and μ are recovered — then the plain MIP of the normals (mean.xyz, 0) per texel.
 `nm_levels` int4 per (map, level): (lobe offset, side, mean offset, 0). `nm_info` int4 per
 scene object: (first level row, levels, lobes J, has map). `nm_brdf` float4 per object:
-(Blinn–Phong exponent s, 0, 0, 0)."""
+(Blinn–Phong exponent s, max taps along the footprint's major axis (1: isotropic), 0, 0)."""
 
 from __future__ import annotations
 
@@ -53,7 +53,7 @@ class NormalMapData:
         return cls.pack([None] * max(n_objects, 1), [1.0] * max(n_objects, 1))
 
     @classmethod
-    def pack(cls, pyramids: list, exponents: list) -> "NormalMapData":
+    def pack(cls, pyramids: list, exponents: list, max_taps: int = 1) -> "NormalMapData":
         """Pack per-object pyramids (None: no map; the same object shares its rows)."""
         parts, levels, info, off = [], [], [], 0
         seen: dict[int, tuple] = {}
@@ -76,6 +76,7 @@ class NormalMapData:
             info.append(seen[id(p)])
         brdf = np.zeros((len(info), 4), np.float32)
         brdf[:, 0] = exponents
+        brdf[:, 1] = max_taps
         data = np.concatenate(parts) if parts else np.zeros((1, 4), np.float32)
         return cls(data, np.asarray(levels or [(0, 1, 0, 0)], np.int32).reshape(-1, 4),
                    np.asarray(info, np.int32).reshape(-1, 4), brdf)
@@ -127,7 +128,8 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
         if name not in cache:
             cache[name] = NormalMapPyramid.load(nm_dir, name)
         pyramids.append(cache[name])
-    return NormalMapData.pack(pyramids, exponents)
+    taps = int(getattr(cfg.render, "normalmap_max_taps", 1))
+    return NormalMapData.pack(pyramids, exponents, taps)
 
 
 def attach_normalmaps(renderer, data: NormalMapData) -> None:

@@ -58,11 +58,11 @@ LIGHTS = [Light("directional", tuple(np.array([0.3, -0.2, 0.9]) / np.linalg.norm
           Light("point", (-0.5, 0.8, 1.5), (2.0, 2.0, 2.0))]
 
 
-def _renderer(pyr, lights=LIGHTS):
+def _renderer(pyr, lights=LIGHTS, taps=1):
     m = Material.from_brdf("bp", make_brdf("blinn_phong", {"exponent": S, "kd": KD, "ks": KS}))
     r = Renderer(env=EnvData.constant(0.0), materials=pack_materials([m]),
                  objects=[ObjectShading(0, normal_map=-1)], lights=lights)
-    attach_normalmaps(r, NormalMapData.pack([pyr], [S]))
+    attach_normalmaps(r, NormalMapData.pack([pyr], [S], taps))
     return r
 
 
@@ -105,16 +105,29 @@ def _mean_lookup(mean, u, v, lod):
     return m + (bilinear(mean[l1].astype(np.float64), u, v) * f if f > 0 else 0.0)
 
 
-def _reference_pixel(method, pyr, mean, uv, duv, view):
-    """Python mirror of one pixel: the footprint level, vmf.lookup (eq 24), eq 20."""
-    lod = math.log2(max(math.hypot(*duv[:2]), math.hypot(*duv[2:])) * SIDE)
-    u, v = float(uv[0]), float(uv[1])
+def _taps(uv, duv, taps):
+    """(level, tap positions) of the footprint: isotropic (taps = 1) or up to `taps` along the
+    longer UV derivative at the shorter one's level (raised until they span it)."""
+    lx, ly = math.hypot(*duv[:2]) * SIDE, math.hypot(*duv[2:]) * SIDE
+    major, minor = max(lx, ly), min(lx, ly)
+    if taps == 1:
+        return math.log2(major), [np.asarray(uv, float)]
+    lod = min(max(math.log2(max(minor, major / taps)), 0.0), math.log2(SIDE))
+    nt = int(min(max(math.ceil(major / 2 ** lod - 1e-3), 1), taps))
+    d = np.asarray(duv[:2] if lx >= ly else duv[2:], float)
+    return lod, [np.asarray(uv, float) + d * ((k + 0.5) / nt - 0.5) for k in range(nt)]
+
+
+def _reference_pixel(method, pyr, mean, uv, duv, view, taps=1):
+    """Python mirror of one pixel: the footprint level and taps, eq 24's averages of α, α·r
+    (vmf.lookup's trilinear fetch per tap), eq 20."""
+    lod, pts = _taps(uv, duv, taps)
     o = _lift(view, np.array([0, 0, 1.0]))
     o /= np.linalg.norm(o)
-    mn = _mean_lookup(mean, u, v, lod)
+    mn = sum(_mean_lookup(mean, p[0], p[1], lod) for p in pts) / len(pts)
     rl = np.linalg.norm(mn)
     nbar = mn / rl
-    al, mu, ka = lookup(pyr, u, v, lod)
+    al, mu, ka = _lobes(pyr, pts, lod)
     out = np.zeros(3)
     for i, E in _light_dirs(np.zeros(3)):
         if i[2] <= 0:
@@ -135,15 +148,37 @@ def _reference_pixel(method, pyr, mean, uv, duv, view):
     return out
 
 
-@pytest.mark.parametrize("method", ["vmf", "normals_mip", "toksvig"])
-def test_kernel_matches_python_lookup_and_eq20(method):
+def _lobes(pyr, pts, lod):
+    """(α, μ, κ) of the taps' averaged α and α·r (one tap: vmf.lookup itself)."""
+    if len(pts) == 1:
+        return lookup(pyr, float(pts[0][0]), float(pts[0][1]), lod)
+    from sgpipe.normalmap.vmf import lobe_from_texel
+    lod = min(max(lod, 0.0), len(pyr.alpha) - 1.0)
+    l0 = int(math.floor(lod))
+    l1, f = min(l0 + 1, len(pyr.alpha) - 1), lod - l0
+    tex = [np.concatenate([pyr.alpha[lv][..., None], pyr.alpha_r[lv]], 3).astype(np.float64)
+           for lv in (l0, l1)]
+    k_n = pyr.lobes
+    fetch = lambda t, p: bilinear(t.reshape(t.shape[0], t.shape[1], -1), float(p[0]),  # noqa
+                                  float(p[1])).reshape(k_n, 4)
+    acc = sum(fetch(tex[0], p) * (1 - f) + (fetch(tex[1], p) * f if f > 0 else 0.0)
+              for p in pts) / len(pts)
+    out = [lobe_from_texel(*acc[j]) for j in range(k_n)]
+    return (np.array([o[0] for o in out]), np.array([o[1] for o in out]),
+            np.array([o[2] for o in out]))
+
+
+@pytest.mark.parametrize("method,taps", [("vmf", 1), ("normals_mip", 1), ("toksvig", 1),
+                                         ("vmf", 8), ("toksvig", 4)])
+def test_kernel_matches_python_lookup_and_eq20(method, taps):
     normals = _map(1)
     pyr, packed = _pyramid(normals)
     n = 48
     fr = _frame(n, 2, 2.0 ** np.linspace(-1.0, 5.0, n))     # levels below 0 … beyond the top
-    img = _renderer(packed).shade(method, fr)
+    fr.duv[:, 3] = fr.duv[:, 0] * np.linspace(0.05, 2.0, n)  # anisotropic, either axis longer
+    img = _renderer(packed, taps=taps).shade(method, fr)
     ref = np.array([_reference_pixel(method, pyr, packed.mean, fr.uv[k], fr.duv[k],
-                                     fr.view[k, :3].astype(float)) for k in range(n)])
+                                     fr.view[k, :3].astype(float), taps) for k in range(n)])
     assert ref.max() > 0.05
     np.testing.assert_allclose(img, ref, rtol=1e-4, atol=1e-6 * ref.max())
 

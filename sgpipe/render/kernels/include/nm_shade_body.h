@@ -6,20 +6,49 @@
     float s = nm_brdf[4 * obj];
     float3 o = normalize(to_world(lift(to_local(gview[gid].xyz, T, B, N), 0.01f), T, B, N));
 
-    /* MIP level from the footprint (clamped to the pyramid), trilinear weights */
-    int l0 = 0, l1 = 0;
+    /* MIP level from the footprint (clamped to the pyramid), trilinear weights. Isotropic
+     * (max taps 1): the level of the longer UV derivative. Anisotropic (max taps N > 1): the
+     * level of the shorter one, raised until N taps along the longer one span it; the taps'
+     * α, α·r and mean normals are averaged (linear in the NDF, eq 24) before κ, μ. */
+    int l0 = 0, l1 = 0, ntap = 1;
     float f = 0.0f;
+    float2 uv0 = px.uv, du = (float2)(0.0f);
     if (info.w) {
         float4 duv = gduv[gid];
-        float len = fmax(length(duv.xy), length(duv.zw)) * (float)nm_levels[info.x].y;
+        float side = (float)nm_levels[info.x].y;
+        float lx = length(duv.xy) * side, ly = length(duv.zw) * side;
+        float major = fmax(lx, ly), minor = fmin(lx, ly);
+        int max_taps = max((int)nm_brdf[4 * obj + 1], 1);
+        float len = max_taps > 1 ? fmax(minor, major / (float)max_taps) : major;
         float lod = clamp(log2(fmax(len, 1e-18f)), 0.0f, (float)(info.y - 1));
+        if (max_taps > 1) {
+            ntap = clamp((int)ceil(major / exp2(lod) - 1e-3f), 1, max_taps);
+            du = lx >= ly ? duv.xy : duv.zw;
+            uv0 = px.uv - du * (0.5f - 0.5f / (float)ntap);
+            du /= (float)ntap;
+        }
         l0 = (int)floor(lod);
         l1 = min(l0 + 1, info.y - 1);
         f = lod - (float)l0;
         l0 += info.x; l1 += info.x;
     }
-    float3 mean_t = info.w ? nm_trilinear(nm_data, nm_levels, l0, l1, f, 0, 0, 1, px.uv).xyz
-                           : (float3)(0.0f, 0.0f, 1.0f);
+    float4 lob[NM_MAX_LOBES];
+    int nl = min(info.z, NM_MAX_LOBES);
+    for (int j = 0; j < nl; ++j) lob[j] = (float4)(0.0f);
+    float3 mean_t = (float3)(0.0f, 0.0f, 1.0f);
+    if (info.w) {
+        mean_t = (float3)(0.0f);
+        for (int k = 0; k < ntap; ++k) {
+            float2 uvk = uv0 + (float)k * du;
+            mean_t += nm_trilinear(nm_data, nm_levels, l0, l1, f, 0, 0, 1, uvk).xyz;
+#if NM_FILTER == NM_VMF
+            for (int j = 0; j < nl; ++j)
+                lob[j] += nm_trilinear(nm_data, nm_levels, l0, l1, f, info.z, j, 0, uvk);
+#endif
+        }
+        mean_t /= (float)ntap;
+        for (int j = 0; j < nl; ++j) lob[j] /= (float)ntap;
+    }
     float3 mean = to_world(mean_t, T, B, N);
     float rl = length(mean);
     float3 nbar = rl > 0.0f ? mean / rl : N;
@@ -51,8 +80,8 @@
         if (!info.w) {
             spec = nm_blinn(N, o, i, s, (s + 2.0f) * 0.125f * MF_INV_PI);
         } else {
-            for (int j = 0; j < info.z; ++j) {
-                float4 t = nm_trilinear(nm_data, nm_levels, l0, l1, f, info.z, j, 0, px.uv);
+            for (int j = 0; j < nl; ++j) {
+                float4 t = lob[j];
                 if (t.x <= 0.0f) continue;
                 float3 r = t.yzw / t.x;
                 float lr = length(r);
