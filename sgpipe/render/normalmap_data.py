@@ -94,6 +94,7 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
     """The pyramids of the scene's normal-mapped objects from `<out>/normalmap/index.json` and
     each object's Blinn–Phong exponent (its material `specs[k]`; other models are refused: eq 20
     is the closed form these kernels implement)."""
+    exponents = [_blinn_phong_exponent(spec) for spec in specs]
     nm_dir = Path(out_dir) / "normalmap"
     index = nm_dir / "index.json"
     objs = cfg.scene.objects
@@ -107,17 +108,8 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
             for name in entry["objects"]:
                 by_object[name] = entry["name"]
     cache: dict = {}
-    pyramids, exponents = [], []
-    for k, (o, spec) in enumerate(zip(objs, specs)):
-        if spec.model != "blinn_phong":
-            raise BadInput(f"the normal-map methods shade Blinn–Phong materials (Han07 eq 20); "
-                           f"material {spec.name!r} is {spec.model!r}",
-                           key=f"fit.materials.{spec.name}.model")
-        params = dict(spec.params or {})
-        if params.get("fresnel", "none") != "none":
-            raise BadInput("the normal-map methods take fresnel: none",
-                           key=f"fit.materials.{spec.name}.params.fresnel")
-        exponents.append(float(params.get("exponent", 100.0)))
+    pyramids = []
+    for k, o in enumerate(objs):
         if o.normal_map is None:
             pyramids.append(None)
             continue
@@ -130,6 +122,22 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
         pyramids.append(cache[name])
     taps = int(getattr(cfg.render, "normalmap_max_taps", 1))
     return NormalMapData.pack(pyramids, exponents, taps)
+
+
+def _blinn_phong_exponent(spec) -> float:
+    """The exponent s of a Blinn–Phong material spec without Fresnel (Lambert: no specular,
+    s unused); other models are BadInput."""
+    if spec.model == "lambert":
+        return 1.0
+    if spec.model != "blinn_phong":
+        raise BadInput(f"the normal-map methods shade Blinn–Phong materials (Han07 eq 20) "
+                       f"and Lambert; material {spec.name!r} is {spec.model!r}",
+                       key=f"fit.materials.{spec.name}.model")
+    params = dict(spec.params or {})
+    if params.get("fresnel", "none") != "none":
+        raise BadInput("the normal-map methods take fresnel: none",
+                       key=f"fit.materials.{spec.name}.params.fresnel")
+    return float(params.get("exponent", 100.0))
 
 
 def attach_normalmaps(renderer, data: NormalMapData) -> None:

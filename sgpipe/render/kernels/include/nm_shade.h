@@ -44,7 +44,8 @@ inline float4 nm_bilinear(__global const float4 *d, int off, int m, int stride, 
 inline float4 nm_trilinear(__global const float4 *d, __global const int4 *lev, int l0, int l1,
                            float f, int stride, int slot, int mean, float2 uv) {
     int4 a = lev[l0];
-    float4 v = mean ? nm_bilinear(d, a.z, a.y, 1, 0, uv) : nm_bilinear(d, a.x, a.y, stride, slot, uv);
+    float4 v = mean ? nm_bilinear(d, a.z, a.y, 1, 0, uv)
+                    : nm_bilinear(d, a.x, a.y, stride, slot, uv);
     if (f > 0.0f) {
         int4 b = lev[l1];
         float4 w = mean ? nm_bilinear(d, b.z, b.y, 1, 0, uv)
