@@ -143,8 +143,9 @@ def _sky(h=64, w=128):
 
 def test_one_gaussian_through_the_pyramid_matches_quadrature(tmp_path):
     """w·G(ω; μ, σ) = w·exp((ω·μ − 1)/σ²) is the SG of λ = 1/σ², so the kernel's glossy term
-    is w·Γ_L(μ, 1/σ²): against texel quadrature of w G L over the lat-long map the pyramid was
-    built from, within 1.5 % per channel (mean < 0.2 %) (σ from 0.1 to 1.2 rad, any direction, the sun in it)."""
+    is w·Γ_L(μ, 1/σ²): against texel quadrature of w G L over the lat-long map the envmap
+    stage built the pyramid from, within 1.5 % per channel, mean < 0.2 % (σ from 0.1 to 1.2
+    rad, any direction, the sun in it)."""
     from sgpipe.render.envdata import EnvData
     from sgpipe.stages import envmap
     sky = _sky()
@@ -206,3 +207,33 @@ def test_sh_diffuse_under_constant_light_is_the_cosine_integral():
     got = _shade(EnvData.constant(L), [obj], light["coeffs"], _unit(RNG.normal(size=(P, 3))),
                  np.arange(P), RNG.dirichlet(np.ones(3), size=P)[:, 1:], np.zeros(P))
     np.testing.assert_allclose(got, np.broadcast_to(np.pi * L * fd, (P, 3)), rtol=1e-3)
+
+
+def test_transport_mesh_must_be_the_visibility_mesh(tmp_path):
+    """The kernel indexes the Gaussians with the frame's SSDF-mesh triangles: another mesh
+    (other sphere subdivisions) is bad input naming transport.sphere_subdivisions."""
+    from types import SimpleNamespace
+    from sgpipe.artifacts.transport import GEOMETRY, object_file
+    from sgpipe.errors import BadInput
+    from sgpipe.io import write_npz
+    from sgpipe.render.transport_data import load_transport_objects
+    from sgpipe.transport import compact
+    folder = tmp_path / "transport"
+    (folder / "ball").mkdir(parents=True)
+    (folder / "manifest.json").write_text("{}\n")
+    X = 3
+    z = np.zeros((X, N_VIEWS, 1))
+    write_npz(folder / object_file("ball", "gaussians.npz"),
+              compact.encode(np.zeros((X, N_VIEWS, 1, 3)), z, np.zeros((X, N_VIEWS, 1, 3)),
+                             0.01, 1.0))
+    write_npz(folder / object_file("ball", "sh_transfer.npz"),
+              {"transfer": np.zeros((X, 25), np.float32), "diffuse_rgb": np.zeros(3, np.float32)})
+    write_npz(folder / object_file("ball", GEOMETRY), {"faces": np.array([[0, 1, 2]], np.int32)})
+    cfg = SimpleNamespace(transport=object(), scene=SimpleNamespace(
+        objects=[SimpleNamespace(name="ball")]))
+    assert load_transport_objects(cfg, tmp_path, [np.array([[0, 1, 2]])])[0]["faces"].shape \
+        == (1, 3)
+    for other in (np.array([[0, 2, 1]]), np.array([[0, 1, 2], [1, 2, 0]]), None):
+        with pytest.raises(BadInput, match="visibility mesh") as e:
+            load_transport_objects(cfg, tmp_path, [other])
+        assert e.value.key == "transport.sphere_subdivisions"
