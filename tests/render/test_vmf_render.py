@@ -140,6 +140,8 @@ def _reference_pixel(method, pyr, mean, uv, duv, view, taps=1):
                     continue
                 sp = float(convolved_exponent(S, k))
                 spec += a * _blinn(m, o, i, sp, 0.25 * (S + 2) / (S + 1) * (sp + 1) / (2 * math.pi))
+            for w, n0 in _level0(mean, pts, lod):
+                spec += w * _blinn(n0, o, i, S, (S + 2) / (8 * math.pi))
         else:
             e = S if method == "normals_mip" else S * rl / (rl + S * (1 - rl))
             diff = max(nbar @ i, 0.0)
@@ -149,9 +151,9 @@ def _reference_pixel(method, pyr, mean, uv, duv, view, taps=1):
 
 
 def _lobes(pyr, pts, lod):
-    """(α, μ, κ) of the taps' averaged α and α·r (one tap: vmf.lookup itself)."""
-    if len(pts) == 1:
-        return lookup(pyr, float(pts[0][0]), float(pts[0][1]), lod)
+    """(α, μ, κ) of the taps' averaged α and α·r (vmf.lookup's fetch per tap); where level 0
+    takes part, level 1's lobes alone, α weighted f (level 0 is shaded as bilinear normals,
+    `_level0`)."""
     from sgpipe.normalmap.vmf import lobe_from_texel
     lod = min(max(lod, 0.0), len(pyr.alpha) - 1.0)
     l0 = int(math.floor(lod))
@@ -161,11 +163,26 @@ def _lobes(pyr, pts, lod):
     k_n = pyr.lobes
     fetch = lambda t, p: bilinear(t.reshape(t.shape[0], t.shape[1], -1), float(p[0]),  # noqa
                                   float(p[1])).reshape(k_n, 4)
-    acc = sum(fetch(tex[0], p) * (1 - f) + (fetch(tex[1], p) * f if f > 0 else 0.0)
+    if len(pts) == 1 and l0 > 0:
+        return lookup(pyr, float(pts[0][0]), float(pts[0][1]), lod)
+    w0 = 0.0 if l0 == 0 else 1 - f
+    acc = sum(fetch(tex[0], p) * w0 + (fetch(tex[1], p) * f if f > 0 else 0.0)
               for p in pts) / len(pts)
     out = [lobe_from_texel(*acc[j]) for j in range(k_n)]
     return (np.array([o[0] for o in out]), np.array([o[1] for o in out]),
             np.array([o[2] for o in out]))
+
+
+def _level0(mean, pts, lod):
+    """[(weight, unit normal)] of level 0's part: per tap the bilinear normal, weight (1 − f)."""
+    lod = min(max(lod, 0.0), len(mean) - 1.0)
+    if lod >= 1.0:
+        return []
+    out = []
+    for p in pts:
+        n = bilinear(mean[0].astype(np.float64), float(p[0]), float(p[1]))
+        out.append(((1 - lod) / len(pts), n / np.linalg.norm(n)))
+    return out
 
 
 @pytest.mark.parametrize("method,taps", [("vmf", 1), ("normals_mip", 1), ("toksvig", 1),

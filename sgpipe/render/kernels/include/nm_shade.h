@@ -22,6 +22,7 @@
 #define NM_TOKSVIG 2
 #define NM_INV_2PI 0.159154943091895f
 #define NM_MAX_LOBES 8      /* normalmap.lobes ≤ 8 */
+#define NM_MAX_L0 16        /* level-0 normals kept apart (more taps: summed modulo 16) */
 
 /* Bilinear fetch of slot `slot` (of `stride` per texel) of a level at (off, side m): repeat
  * addressing, row 0 = v = 1, texel centres at half-integers (vmf.bilinear, tex_bilinear). */

@@ -36,14 +36,36 @@
     int nl = min(info.z, NM_MAX_LOBES);
     for (int j = 0; j < nl; ++j) lob[j] = (float4)(0.0f);
     float3 mean_t = (float3)(0.0f, 0.0f, 1.0f);
+#if NM_FILTER == NM_VMF
+    /* Where level 0 takes part (weight 1 − f), its texels are read as the renderer and the
+     * reference read the map — the bilinearly interpolated normal, one sharp lobe per tap —
+     * instead of eq 24's bilinear mix of the texels' delta lobes (which blurs every texel
+     * boundary into a broad lobe: 33 dB vs 47 dB for the plain normal against the reference
+     * at 16×16 supersampling). The J lobes then come from level 1 alone, weighted f. */
+    int at0 = info.w && l0 == info.x;
+    int n0c = min(ntap, NM_MAX_L0);
+    float4 n0s[NM_MAX_L0];
+    for (int k = 0; k < n0c; ++k) n0s[k] = (float4)(0.0f);
+#endif
     if (info.w) {
         mean_t = (float3)(0.0f);
         for (int k = 0; k < ntap; ++k) {
             float2 uvk = uv0 + (float)k * du;
             mean_t += nm_trilinear(nm_data, nm_levels, l0, l1, f, 0, 0, 1, uvk).xyz;
 #if NM_FILTER == NM_VMF
-            for (int j = 0; j < nl; ++j)
-                lob[j] += nm_trilinear(nm_data, nm_levels, l0, l1, f, info.z, j, 0, uvk);
+            if (at0) {
+                int4 lv = nm_levels[l0];
+                float4 nb = nm_bilinear(nm_data, lv.z, lv.y, 1, 0, uvk);
+                n0s[k % NM_MAX_L0] += (float4)(1.0f, nb.xyz);
+                if (f > 0.0f) {
+                    int4 lw = nm_levels[l1];
+                    for (int j = 0; j < nl; ++j)
+                        lob[j] += f * nm_bilinear(nm_data, lw.x, lw.y, info.z, j, uvk);
+                }
+            } else {
+                for (int j = 0; j < nl; ++j)
+                    lob[j] += nm_trilinear(nm_data, nm_levels, l0, l1, f, info.z, j, 0, uvk);
+            }
 #endif
         }
         mean_t /= (float)ntap;
@@ -80,6 +102,13 @@
         if (!info.w) {
             spec = nm_blinn(N, o, i, s, (s + 2.0f) * 0.125f * MF_INV_PI);
         } else {
+            for (int k = 0; at0 && k < n0c; ++k) {            /* level 0: bilinear normals */
+                float3 nk = to_world(n0s[k].yzw, T, B, N);
+                float ln = length(nk);
+                if (n0s[k].x <= 0.0f || ln <= 0.0f) continue;
+                spec += (1.0f - f) * (n0s[k].x / (float)ntap)
+                        * nm_blinn(nk / ln, o, i, s, (s + 2.0f) * 0.125f * MF_INV_PI);
+            }
             for (int j = 0; j < nl; ++j) {
                 float4 t = lob[j];
                 if (t.x <= 0.0f) continue;
