@@ -106,24 +106,21 @@ def relative_mse(image, reference, *, eps: float = REL_MSE_EPS, mask=None) -> fl
     return float(np.mean((a - r) ** 2 / (r * r + eps)))
 
 
-def _gauss(x):
-    from scipy.ndimage import gaussian_filter
-    return gaussian_filter(x, SSIM_SIGMA, truncate=SSIM_TRUNCATE, mode="reflect")
-
-
 def ssim_map(image, reference, *, peak: float | str = PSNR_PEAK) -> np.ndarray:
     """Per-pixel SSIM of the luminances (Wang et al. 2004 eq 13 with Gaussian local stats)."""
+    from skimage.metrics import structural_similarity
     _pair(image, reference)
     x, y = luminance(image), luminance(reference)
-    L = _peak(reference, peak)
-    c1, c2 = (SSIM_K1 * L) ** 2, (SSIM_K2 * L) ** 2
-    mx, my = _gauss(x), _gauss(y)
-    sxx = _gauss(x * x) - mx * mx
-    syy = _gauss(y * y) - my * my
-    sxy = _gauss(x * y) - mx * my
-    num = (2 * mx * my + c1) * (2 * sxy + c2)
-    den = (mx * mx + my * my + c1) * (sxx + syy + c2)
-    return num / den
+    # win_size only sets scikit-image's border crop of the mean, which we do not use: below
+    # its default 11 taps it must just be odd and fit the image (the map is the same)
+    side = min(x.shape)
+    win = None if side >= 11 else side - 1 + side % 2
+    # Wang et al.'s constants and Gaussian window (σ 1.5, population covariance), as published
+    _, full = structural_similarity(
+        x, y, data_range=_peak(reference, peak), gaussian_weights=True, sigma=SSIM_SIGMA,
+        truncate=SSIM_TRUNCATE, use_sample_covariance=False, K1=SSIM_K1, K2=SSIM_K2,
+        win_size=win, full=True)
+    return full
 
 
 def ssim(image, reference, *, peak: float | str = PSNR_PEAK, mask=None) -> float:

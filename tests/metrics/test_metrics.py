@@ -75,6 +75,25 @@ def test_ssim_matches_brute_force_window():
     assert m[i, j] == pytest.approx(want, rel=1e-9)
 
 
+@pytest.mark.parametrize("shape", [(5, 6), (12, 9), (40, 33)])
+def test_ssim_map_everywhere_matches_reflected_gaussian_statistics(shape):
+    """Every pixel, borders and images smaller than the 11-tap window included, against the
+    local statistics by scipy's Gaussian filter with reflected borders."""
+    from scipy.ndimage import gaussian_filter
+    rng = np.random.default_rng(3)
+    x = rng.uniform(0, 1, (*shape, 3))
+    y = np.clip(x + rng.normal(0, 0.1, x.shape), 0, None)
+    lx, ly = metrics.luminance(x), metrics.luminance(y)
+
+    def g(a):
+        return gaussian_filter(a, 1.5, truncate=3.5, mode="reflect")
+    mx, my = g(lx), g(ly)
+    vx, vy, cxy = g(lx * lx) - mx * mx, g(ly * ly) - my * my, g(lx * ly) - mx * my
+    c1, c2 = 0.01 ** 2, 0.03 ** 2
+    want = (2 * mx * my + c1) * (2 * cxy + c2) / ((mx * mx + my * my + c1) * (vx + vy + c2))
+    np.testing.assert_allclose(metrics.ssim_map(x, y), want, rtol=1e-9, atol=1e-12)
+
+
 def test_ssim_decreases_with_noise():
     rng = np.random.default_rng(2)
     yy, xx = np.mgrid[0:64, 0:64] / 64.0
