@@ -55,6 +55,8 @@ class Method:
     baseline_shadows: bool = False  # SSDF shadows follow `render.baseline_shadows` (else on)
     needs_view_gmm: bool = False   # reads the fit's per-view mixtures (view_gmm.npz)
     needs_ndf_table: bool = False  # reads the exact NDF tabulated from the BRDF
+    needs_transport: bool = False  # reads the transport stage's Gaussians (render.transport_data)
+    needs_normalmap: bool = False  # reads the Han07 normal-map pyramids (render.normalmap_data)
 
     @cached_property
     def parameters(self) -> list[tuple[str, str]]:
@@ -78,6 +80,29 @@ SG_PARAMS = """
     __global const float4 *env_sg, const int n_env_sg, const float env_scale,
     __global const float4 *lights, const int n_lights"""
 
+#: ... what `transport` (Green06) takes next: per object (first vertex, first face, K, has data),
+#: the transport meshes' faces, the Gaussians, SH transfer vectors, diffuse f_d, the light's SH
+#: coefficients, the 92-view lookup tables (render.transport_data), then the accurate Γ_L chain.
+TRANSPORT_PARAMS = """
+    __global const int4 *tp_obj, __global const int *tp_faces, __global const float4 *tp_gauss,
+    __global const float *tp_sh, __global const float4 *tp_fd,
+    __global const float4 *tp_light_sh, const int tp_sh_n,
+    __global const float4 *tp_vinv, __global const int4 *tp_vtri,
+    __global const float4 *pyr, __global const int *pyr_off, __global const int *pyr_res,
+    __global const float *pyr_lam, const int pyr_n, const float pyr_log_ratio,
+    const float4 env_mean,
+    __global const float4 *pyr_pts, const int n_pts,
+    __global const float4 *pyr_raw, const int raw_n, const float env_scale"""
+
+#: ... what the normal-map methods (`vmf`, `normals_mip`, `toksvig`; Han07) take next: the
+#: packed pyramids (render.normalmap_data), per pixel the UV derivatives (scene.footprint),
+#: the diffuse SG light fit of the environment, the local lights.
+NM_PARAMS = """
+    __global const float4 *nm_data, __global const int4 *nm_levels, __global const int4 *nm_info,
+    __global const float *nm_brdf, __global const float4 *gduv,
+    __global const float4 *env_sg, const int n_env_sg, const float env_scale,
+    __global const float4 *lights, const int n_lights"""
+
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sg", "Wang09 SG + SSDF shadows", "sg_shade",
            (PIXEL_PARAMS, SG_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",)),
@@ -87,6 +112,15 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("fis", "Colbert–Křivánek filtered importance sampling", "fis_shade",
            (PIXEL_PARAMS, MIP_PARAMS, "const int nsamp, const uint seed", TAIL_PARAMS),
            defines=("MAX_NDF_LOBES",), baseline_shadows=True, needs_ndf_table=True),
+    Method("transport", "Green06 per-vertex view-dependent Gaussians + SH diffuse PRT",
+           "transport_shade", (PIXEL_PARAMS, TRANSPORT_PARAMS, TAIL_PARAMS),
+           needs_transport=True),
+    Method("vmf", "Han07 vMF-filtered normal map, point/directional lights (eq 20, 24)",
+           "vmf_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
+    Method("normals_mip", "normalised MIP of the normal map (Han07 baseline)", "nmip_shade",
+           (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
+    Method("toksvig", "Toksvig-scaled exponent from the MIP normal length", "toksvig_shade",
+           (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
 )}
 
 #: `render.methods` choices: the OpenCL methods and the Monte Carlo ground truth.

@@ -66,6 +66,7 @@ class Frame:
     obj: np.ndarray          # (n,) int32
     tri: np.ndarray          # (n,) int32 SSDF-mesh triangle (−1: none)
     bary: np.ndarray         # (n, 2) float32 SSDF-mesh barycentrics
+    duv: np.ndarray | None = None  # (n, 4) UV derivatives (sgpipe.scene.footprint), or none
 
     @classmethod
     def from_gbuffer(cls, gb, vis_tri=None, vis_bary=None) -> "Frame":
@@ -134,6 +135,12 @@ class Renderer:
         self.timings: dict[str, float] = {}
         self._kernels: dict[str, object] = {}
         self._upload(textures or Textures(), list(lights))
+        # the normal-map and transport methods' buffers, empty until their data is attached
+        from sgpipe.render.normalmap_data import NormalMapData
+        from sgpipe.render.transport_data import transport_arrays, upload_transport
+        self.static.update(NormalMapData.empty(len(self.objects)).device_buffers(self.ctx))
+        upload_transport(self, transport_arrays([None] * len(self.objects),
+                                                np.zeros((0, 3), np.float32)))
 
     # -- static data ----------------------------------------------------------------------
     def _object_records(self):
@@ -232,6 +239,8 @@ class Renderer:
         return dict(n=len(fr.index), gnrm=dev(fr.normal), gtan=dev(fr.tangent),
                     gview=dev(fr.view), gpos=dev(fr.position), guv=dev(fr.uv),
                     gobj=dev(fr.obj, np.int32), gtri=dev(fr.tri, np.int32), gbary=dev(fr.bary),
+                    gduv=dev(fr.duv if fr.duv is not None
+                             else np.zeros((max(len(fr.index), 1), 4))),
                     out=opencl.empty_device(self.ctx, 16 * max(len(fr.index), 1)))
 
     def shade(self, method: str, fr: Frame | dict, *, flags: int = 0, fis_samples: int = 40,

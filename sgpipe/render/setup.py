@@ -115,6 +115,12 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
     renderer = Renderer(env=env, materials=pack_materials(mats), objects=shading,
                         textures=textures, lights=lights_of(rs), env_scale=environment_scale(cfg),
                         fh_mode=rs.fh, gmm_taps=rs.gmm_taps)
+    if any(x.needs_transport for x in methods):
+        from sgpipe.render.transport_data import attach_transport
+        attach_transport(renderer, cfg, out_dir, [v for v, _ in vis])
+    if any(x.needs_normalmap for x in methods):
+        from sgpipe.render.normalmap_data import attach_normalmaps, load_normalmap_data
+        attach_normalmaps(renderer, load_normalmap_data(cfg, out_dir, specs))
     return SceneBundle(renderer, objects, [p for _, p in vis], environment_latlong(cfg))
 
 

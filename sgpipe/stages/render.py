@@ -23,7 +23,8 @@ from sgpipe.stages.base import StageRun, log
 
 def _inputs(cfg, out_dir: Path) -> list[Path]:
     """Upstream manifests (they hash every artifact) and the files the scene names."""
-    files = [out_dir / s / "manifest.json" for s in ("fit", "envmap", "visibility")
+    files = [out_dir / s / "manifest.json"
+             for s in ("fit", "envmap", "visibility", "transport", "normalmap")
              if getattr(cfg, s) is not None]
     for o in cfg.scene.objects if cfg.scene is not None else []:
         files += [Path(p) for p in (o.mesh, o.normal_map) if p]
@@ -61,7 +62,8 @@ def run(cfg, out_dir: Path, *, force: bool = False):
 
     out_dir = Path(out_dir)
     rs = cfg.render
-    for stage, cmd in (("fit", "fit"), ("envmap", "precompute"), ("visibility", "precompute")):
+    for stage, cmd in (("fit", "fit"), ("envmap", "precompute"), ("visibility", "precompute"),
+                       ("transport", "precompute"), ("normalmap", "precompute")):
         done = (out_dir / stage / "manifest.json").is_file()
         if getattr(cfg, stage) is not None and not done:
             raise BadInput(f"no {stage} artifacts here: run `sgpipe {cmd}` (or `sgpipe run`) "
@@ -81,7 +83,8 @@ def run(cfg, out_dir: Path, *, force: bool = False):
         tracer = Tracer(bundle.objects)
         gb = tracer.trace(*cam.rays())       # the pixel centres: gbuffer.npz, surface masks
         subframes = supersampled_frames(cam, tracer, bundle, rs.supersample, rs.background,
-                                        centre=gb)
+                                        centre=gb,
+                                        footprints=any(m.needs_normalmap for m in shaders))
         n_shaded = int(gb.hit.sum())
         run.timings["gbuffer_s"] = time.perf_counter() - t0
         art.write_gbuffer(run, {k: getattr(gb, k) for k in art.GBUFFER_ARRAYS})
@@ -130,12 +133,14 @@ def supersample_offsets(n: int) -> list[tuple[float, float]]:
     return [(ox, oy) for oy in c for ox in c]
 
 
-def supersampled_frames(cam, tracer, bundle, n: int, background: bool, centre=None) -> list:
+def supersampled_frames(cam, tracer, bundle, n: int, background: bool, centre=None,
+                        footprints: bool = False) -> list:
     """Per sub-pixel position of `supersample_offsets(n)`: (Frame of its G-buffer, background
     radiance or None). `centre`: the pixel-centre G-buffer when already traced."""
     from sgpipe.render.renderer import Frame
     from sgpipe.render.scene import ssdf_triangles
     from sgpipe.render.setup import latlong_lookup
+    from sgpipe.scene.footprint import uv_derivatives
     out = []
     for off in supersample_offsets(n):
         o, d = cam.rays(offset=off)
@@ -144,7 +149,10 @@ def supersampled_frames(cam, tracer, bundle, n: int, background: bool, centre=No
         bg = None
         if background and bundle.env_latlong is not None:
             bg = latlong_lookup(bundle.env_latlong, d)
-        out.append((Frame.from_gbuffer(g, vtri, vbary), bg))
+        fr = Frame.from_gbuffer(g, vtri, vbary)
+        if footprints:   # texture footprint of each sub-sample (1/n pixel): the MIP level
+            fr.duv = uv_derivatives(cam, g, off, 1.0 / n).reshape(-1, 4)[fr.index]
+        out.append((fr, bg))
     return out
 
 

@@ -122,6 +122,11 @@ class RenderSection:
                                                        default_factory=list)
     timing_repeats: int = doc("Warm shading launches per method for the timing (minimum is "
                               "reported).", 3, ge=1, le=100)
+    normalmap_max_taps: int = doc(
+        "vmf / normals_mip / toksvig: texture taps along the pixel footprint's longer axis. 1: "
+        "isotropic, the MIP level of the longer UV derivative; N > 1: anisotropic, the level of "
+        "the shorter one raised until N taps span the longer, their α, α·r and mean normals "
+        "averaged before κ and μ are recovered (Han07 eq 24, Fig 3).", 1, ge=1, le=64)
 
     def validate(self):
         if self.compare_to is not None and self.compare_to not in self.methods:
