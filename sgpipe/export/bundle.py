@@ -7,8 +7,6 @@ export stays as it was)."""
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import time
 from pathlib import Path
 
@@ -19,7 +17,7 @@ from sgpipe.artifacts import envmap as env_art
 from sgpipe.artifacts import visibility as vis_art
 from sgpipe.errors import BadInput
 from sgpipe.export import dds, green06, gltf, ktx2, normalmaps, prefilter, sh9
-from sgpipe.io.atomic import file_hash
+from sgpipe.io.atomic import atomic_folder, file_hash
 
 MARKER = ".sgpipe-export"           # marks a folder this command wrote (safe to replace)
 KTX2_FILE, DDS_FILE = "environment.ktx2", "environment.dds"
@@ -178,38 +176,11 @@ def write_export(run_dir: str | Path, out_dir: str | Path | None = None, *,
         raise BadInput("run folder not found", file=run_dir, key="RUN_DIR")
     out_dir = Path(out_dir) if out_dir is not None else default_out(run_dir)
     _check_target(out_dir)
-    made = []
-    p = out_dir.parent
-    while not p.exists():
-        made.append(p)
-        p = p.parent
-    staging = out_dir.parent / f".{out_dir.name}.staging-{os.getpid()}"
-    old = out_dir.parent / f".{out_dir.name}.old-{os.getpid()}"
-    try:
-        try:
-            staging.mkdir(parents=True)
-        except OSError as e:
-            raise BadInput(f"export folder is not writable ({e.strerror})",
-                           file=out_dir.parent, key="--out") from None
+    with atomic_folder(out_dir, marker=MARKER, writer="sgpipe export") as staging:
         info = build(run_dir, staging, kfmt, size)
         info["files"] = {q.relative_to(staging).as_posix(): file_hash(q)
                          for q in sorted(staging.rglob("*")) if q.is_file()}
         (staging / INFO_FILE).write_text(json.dumps(info, indent=2, sort_keys=True) + "\n")
-        (staging / MARKER).write_text("written by `sgpipe export`; replaced by the next one\n")
-        if out_dir.exists():
-            os.replace(out_dir, old)
-        os.replace(staging, out_dir)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        if old.exists() and not out_dir.exists():
-            os.replace(old, out_dir)
-        for q in made:
-            try:
-                q.rmdir()
-            except OSError:
-                break
-        raise
-    shutil.rmtree(old, ignore_errors=True)
     total = sum(q.stat().st_size for q in out_dir.rglob("*") if q.is_file())
     _log(f"[export] wrote {len(info['files']) + 2} files ({total / 1e6:.2f} MB) in "
          f"{time.perf_counter() - t0:.2f} s -> {out_dir}")

@@ -11,6 +11,7 @@ import shutil
 from pathlib import Path
 
 from sgpipe.errors import BadInput
+from sgpipe.io.atomic import atomic_folder
 from sgpipe.report.collect import Run, check_run_dir, collect
 
 INDEX = "index.html"
@@ -41,21 +42,6 @@ def _check_target(out_dir: Path) -> None:
                        "choose another --out", file=out_dir, key="--out")
 
 
-def _make_parent(parent: Path) -> list[Path]:
-    """Create the target's parent folders; returns those created (removed again on failure)."""
-    made = []
-    p = parent
-    while not p.exists():
-        made.append(p)
-        p = p.parent
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise BadInput(f"cannot create the report folder ({e.strerror})", file=parent,
-                       key="--out") from None
-    return made
-
-
 @contextlib.contextmanager
 def _run_lock(run_dir: Path):
     """The run folder's lock (sgpipe.stages.base.folder_lock), so the page never catches a stage
@@ -84,34 +70,11 @@ def _write(run_dir: Path, out_dir: str | Path | None) -> Path:
     run = collect(run_dir)                           # BadInput for a folder without stages
     out_dir = Path(out_dir) if out_dir is not None else default_out(run_dir)
     _check_target(out_dir)
-    made = _make_parent(out_dir.parent)
-    staging = out_dir.parent / f".{out_dir.name}.staging-{os.getpid()}"
-    old = out_dir.parent / f".{out_dir.name}.old-{os.getpid()}"
-    try:
-        try:
-            staging.mkdir()
-        except OSError as e:
-            raise BadInput(f"report folder is not writable ({e.strerror})", file=out_dir.parent,
-                           key="--out") from None
+    with atomic_folder(out_dir, marker=MARKER, writer="sgpipe report") as staging:
         for p in pictures(run):
             dest = staging / p.href
             dest.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(p.source, dest)
         charts = write_charts(run, staging)
         (staging / INDEX).write_text(render_page(run, charts), encoding="utf-8")
-        (staging / MARKER).write_text("written by `sgpipe report`; replaced by the next one\n")
-        if out_dir.exists():
-            os.replace(out_dir, old)
-        os.replace(staging, out_dir)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        if old.exists() and not out_dir.exists():
-            os.replace(old, out_dir)                 # put the previous report back
-        for p in made:                               # innermost first
-            try:
-                p.rmdir()
-            except OSError:
-                break
-        raise
-    shutil.rmtree(old, ignore_errors=True)
     return out_dir / INDEX
