@@ -13,10 +13,13 @@ run still traces for well over 20 s. The output says which resolution it used.
 Chunk sizes for a large cluster: a cluster stays busy when there are several chunks per worker
 (≥ 4× the workers, so the last wave is short and a lost worker costs little) and each chunk is
 long against Dask's per-task cost (~1 ms of scheduler time and a round trip). `chunk_vertices`
-sets both: 20.6k vertices / 48 per chunk = 430 chunks, ≥ 4 per worker up to 100 workers, and a
-48-vertex chunk at 512² traces for ~1 s (≈ 0.1 s at this benchmark's 160²) — ≥ 100× the
-per-task cost. For N workers pick chunk_vertices ≤ vertices / (4 N); going much below ~16
-vertices (512²) makes scheduling visible. The scheduler runs with queuing off
+sets both: at 512², 20.6k vertices / 48 per chunk = 430 chunks, ≥ 4 per worker up to 100
+workers, and a 48-vertex chunk traces for ~1 s — ≥ 100× the per-task cost. This benchmark's
+rays are 10× fewer (160²), so it uses 240-vertex chunks (86 chunks, ~0.5 s each): the per-task
+cost then weighs at least as much as in the 512² run; 48-vertex chunks at 160² (~0.1 s) measured
+5–16 % over the pool, the spread of single runs on the shared machine. For N workers pick
+chunk_vertices ≤ vertices / (4 N); going much below ~16 vertices (512²) makes scheduling visible.
+The scheduler runs with queuing off
 (`distributed.scheduler.worker-saturation: inf`, as the README starts it): Dask's default keeps
 ~1 chunk per worker thread and sends the next after a round trip, which cost 11–14 % here with
 ~0.1 s chunks (3–10 % with queuing off). The chunks are the same in every run (Dask or not),
@@ -53,7 +56,7 @@ visibility:
   trace_resolution: {TRACE_RES}
   resolution: {SSDF_RES}
   pca_terms: 16
-  chunk_vertices: 48
+  chunk_vertices: 240
 """
 
 
@@ -123,7 +126,7 @@ def main() -> int:
         print("bench_dask needs the [dask] extra: pip install -e '.[dask]'")
         return 1
     print(f"visibility: teapot + floor, trace_resolution {TRACE_RES}² -> {SSDF_RES}² "
-          f"(the issue's 512² takes ~245 s a run here), chunk_vertices 48")
+          f"(the issue's 512² takes ~245 s a run here), chunk_vertices 240")
     with tempfile.TemporaryDirectory(prefix="sgpipe-bench-dask-") as tmp:
         tmp = Path(tmp)
         cfg = tmp / "bench.yaml"
@@ -138,25 +141,34 @@ def main() -> int:
             print(f"Dask, 1 worker          : trace {one['trace_wall_s']:6.1f} s "
                   f"(stage {one['total_s']:.1f} s)", flush=True)
             cluster.add_worker(2)
-            two = _stage(cfg, tmp / "dask2", "--scheduler", cluster.addr)
-            print(f"Dask, 2 workers         : trace {two['trace_wall_s']:6.1f} s "
-                  f"(stage {two['total_s']:.1f} s)", flush=True)
+            twos = []
+            for k in range(2):
+                twos.append(_stage(cfg, tmp / f"dask2_{k}", "--scheduler", cluster.addr))
+                print(f"Dask, 2 workers         : trace {twos[-1]['trace_wall_s']:6.1f} s "
+                      f"(stage {twos[-1]['total_s']:.1f} s)", flush=True)
         finally:
             cluster.close()
+        # each side's best of two runs: one run's wall time on 2 shared cores moves by ±5 %,
+        # as much as the overhead being measured
+        pool2 = _stage(cfg, tmp / "pool_2")
+        print(f"local pool, 2 processes : trace {pool2['trace_wall_s']:6.1f} s "
+              f"(stage {pool2['total_s']:.1f} s)", flush=True)
+        pool = min(pool, pool2, key=lambda r: r["trace_wall_s"])
+        two = min(twos, key=lambda r: r["trace_wall_s"])
         ref = _files(tmp / "pool")
         differ = {}
-        for run in ("dask1", "dask2"):
+        for run in ("dask1", "dask2_0", "dask2_1", "pool_2"):
             got = _files(tmp / run)
             differ[run] = sorted(k for k in set(ref) | set(got) if ref.get(k) != got.get(k))
         same = not any(differ.values())
     overhead = two["trace_wall_s"] / pool["trace_wall_s"]
     speedup = one["trace_wall_s"] / two["trace_wall_s"]
     ok_o, ok_s = overhead <= OVERHEAD_MAX, speedup >= SPEEDUP_MIN
-    print(f"Dask 2 workers / pool 2 processes: {overhead:.3f} (target ≤ {OVERHEAD_MAX}) "
+    print(f"Dask 2 workers / pool 2 processes (best of two each): {overhead:.3f} (target ≤ {OVERHEAD_MAX}) "
           f"{'ok' if ok_o else 'MISSED'}")
     print(f"Dask 1 -> 2 workers speed-up     : {speedup:.2f}× (target ≥ {SPEEDUP_MIN}) "
           f"{'ok' if ok_s else 'MISSED'}")
-    print(f"artifacts byte-identical (pool, Dask 1, Dask 2): {same}")
+    print(f"artifacts byte-identical (pools, Dask 1, Dask 2 ×2): {same}")
     for run, names in differ.items():
         if names:
             print(f"  {run} differs from the pool in {len(names)} files: {names[:5]}")
