@@ -42,14 +42,62 @@ def write_object(sink, obj: str, *, packed: dict, cube_resolution: int, gaussian
 
 
 # -- readers (the renderer, tests) -------------------------------------------------------------
+#: Green06's icosahedral view set (sgpipe.transport.views): the masks' bit count
+N_VIEWS = 92
+
+
 def read_packed_gaussians(folder: str | Path, obj: str) -> dict:
-    """The compact arrays of gaussians.npz as written (`sgpipe.transport.compact.decode` turns
-    them into mu, sigma, w, stored; `sgpipe.transport.compact.read_gaussians` does both)."""
+    """The compact arrays of gaussians.npz as written (`decode_gaussians` expands them)."""
     path = Path(folder) / object_file(obj, GAUSSIANS)
     if not path.is_file():
         raise BadInput("transport artifact not found (run `sgpipe precompute`)", file=path,
                        key=f"transport.{obj}")
     return read_npz(path)
+
+
+def oct_decode(e):
+    """Octahedral uint16 (..., 2) → unit directions (..., 3) (Meyer et al. 2010)."""
+    q = np.asarray(e, float) / 65535 * 2 - 1
+    x, y = q[..., 0], q[..., 1]
+    z = 1 - np.abs(x) - np.abs(y)
+    t = np.maximum(-z, 0.0)
+    x = x - np.where(x >= 0, t, -t)
+    y = y - np.where(y >= 0, t, -t)
+    v = np.stack([x, y, z], -1)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def sigma_decode(code, lo, hi):
+    """uint8 code → σ, uniform in ln σ over [lo, hi]."""
+    return np.exp(np.log(lo) + np.asarray(code, float) / 255 * (np.log(hi) - np.log(lo)))
+
+
+def unpack_views(bits):
+    """Little-endian 92-bit masks (..., 12) uint8 → (..., 92) bool."""
+    return np.unpackbits(bits, axis=-1, count=N_VIEWS, bitorder="little").astype(bool)
+
+
+def decode_gaussians(arrays: dict):
+    """Full arrays (mu (X, 92, K, 3), sigma (X, 92, K) radians, w (X, 92, K, 3), stored (X, 92)
+    bool) of gaussians.npz's compact arrays (docs/GREEN06.md, Storage); views not stored get
+    μ = 0, σ = 0 and w = 0 (the renderer never reaches them with a nonzero weight)."""
+    stored, weighted = unpack_views(arrays["stored_mask"]), unpack_views(arrays["weight_mask"])
+    K = arrays["dirs"].shape[1]
+    X = stored.shape[0]
+    lo, hi = arrays["sigma_range"]
+    mu = np.zeros((X, N_VIEWS, K, 3))
+    sigma = np.zeros((X, N_VIEWS, K))
+    w = np.zeros((X, N_VIEWS, K, 3))
+    mu[stored] = oct_decode(arrays["dirs"])
+    sigma[stored] = sigma_decode(arrays["sigma_code"], lo, hi)
+    scale = np.repeat(arrays["weight_scale"].astype(np.float64), weighted.sum(1))
+    w[weighted] = arrays["weights"].astype(np.float64) * scale[:, None, None]
+    return mu, sigma, w, stored
+
+
+def read_gaussians(folder: str | Path, obj: str):
+    """`decode_gaussians` of one object's gaussians.npz."""
+    return decode_gaussians(read_packed_gaussians(folder, obj))
 
 
 def read_sh_transfer(folder: str | Path, obj: str) -> tuple[np.ndarray, np.ndarray]:
@@ -60,4 +108,5 @@ def read_sh_transfer(folder: str | Path, obj: str) -> tuple[np.ndarray, np.ndarr
 
 
 __all__ = ["GAUSSIANS", "SH_TRANSFER", "GEOMETRY", "REPORT", "object_file", "write_object",
-           "read_packed_gaussians", "read_sh_transfer"]
+           "read_packed_gaussians", "read_sh_transfer", "N_VIEWS",
+           "oct_decode", "sigma_decode", "unpack_views", "decode_gaussians", "read_gaussians"]

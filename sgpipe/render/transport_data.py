@@ -1,7 +1,7 @@
 """Device buffers of the `transport` method (Green06 §5): per object its fitted Gaussians
-(gaussians.npz decoded as `sgpipe.transport.compact` does), SH transfer vectors and diffuse f_d from
-`<out>/transport/<object>/`, the environment's SH light coefficients (`<out>/envmap/light_sh.npz`)
-and the 92-view tables of `views.nearest_views`, keyed by the kernel's parameter names
+(gaussians.npz through `sgpipe.artifacts.transport.read_gaussians`), SH transfer vectors and
+diffuse f_d from `<out>/transport/<object>/`, the environment's SH light coefficients
+(`<out>/envmap/light_sh.npz`) and the 92-view tables of `views.nearest_views`, keyed by the kernel's parameter names
 (`methods.TRANSPORT_PARAMS`, layouts in kernels/include/transport.h)."""
 
 from __future__ import annotations
@@ -16,8 +16,6 @@ from sgpipe.errors import BadInput
 MAX_GAUSSIANS = 3
 #: SH coefficients per transfer vector (5th order, sgpipe.transport.sh_transfer)
 SH_COEFFS = 25
-#: the icosahedral view set (Green06 §3.2)
-N_VIEWS = 92
 
 
 def view_tables() -> tuple[np.ndarray, np.ndarray]:
@@ -37,33 +35,6 @@ def view_tables() -> tuple[np.ndarray, np.ndarray]:
     vtri = np.zeros((len(tri), 4), np.int32)
     vtri[:, :3] = tri
     return vinv.reshape(-1, 4), vtri
-
-
-def decode_gaussians(arrays: dict):
-    """(mu (X, 92, K, 3), sigma (X, 92, K), w (X, 92, K, 3)) of gaussians.npz's compact arrays
-    (docs/GREEN06.md, Storage): little-endian 92-bit masks (stored views, weighted views),
-    octahedral uint16 directions, σ log-uniform over sigma_range in 255 steps, half weights ×
-    the vertex's float32 scale; views not stored are zero. Mirrors
-    sgpipe.transport.compact.decode (the render layer reads the file format, not that package)."""
-    unpack = lambda bits: np.unpackbits(bits, axis=-1, count=N_VIEWS,
-                                        bitorder="little").astype(bool)
-    stored, weighted = unpack(arrays["stored_mask"]), unpack(arrays["weight_mask"])
-    X, K = stored.shape[0], arrays["dirs"].shape[1]
-    lo, hi = (float(v) for v in arrays["sigma_range"])
-    q = np.asarray(arrays["dirs"], float) / 65535 * 2 - 1
-    x, y = q[..., 0], q[..., 1]
-    z = 1 - np.abs(x) - np.abs(y)
-    t = np.maximum(-z, 0.0)
-    d = np.stack([x - np.where(x >= 0, t, -t), y - np.where(y >= 0, t, -t), z], -1)
-    mu = np.zeros((X, N_VIEWS, K, 3))
-    sigma = np.zeros((X, N_VIEWS, K))
-    w = np.zeros((X, N_VIEWS, K, 3))
-    mu[stored] = d / np.linalg.norm(d, axis=-1, keepdims=True)
-    sigma[stored] = np.exp(np.log(lo) + np.asarray(arrays["sigma_code"], float) / 255
-                           * (np.log(hi) - np.log(lo)))
-    scale = np.repeat(np.asarray(arrays["weight_scale"], np.float64), weighted.sum(1))
-    w[weighted] = np.asarray(arrays["weights"], np.float64) * scale[:, None, None]
-    return mu, sigma, w
 
 
 def pack_gaussians(mu, sigma, w) -> np.ndarray:
@@ -120,7 +91,7 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
     """Per scene object its transport data (dicts of `transport_arrays`) read from
     `<out>/transport/`. The kernel indexes them with the frame's SSDF-mesh triangles, so each
     object's transport mesh must be its visibility mesh (`ssdf_faces`, per object or None)."""
-    from sgpipe.artifacts.transport import (GEOMETRY, object_file, read_packed_gaussians,
+    from sgpipe.artifacts.transport import (GEOMETRY, object_file, read_gaussians,
                                             read_sh_transfer)
     from sgpipe.io import read_npz
     folder = Path(out_dir) / "transport"
@@ -130,7 +101,7 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
                        key="transport")
     out = []
     for k, spec in enumerate(cfg.scene.objects):
-        mu, sigma, w = decode_gaussians(read_packed_gaussians(folder, spec.name))
+        mu, sigma, w, _ = read_gaussians(folder, spec.name)
         transfer, fd = read_sh_transfer(folder, spec.name)
         faces = read_npz(folder / object_file(spec.name, GEOMETRY))["faces"]
         ref = ssdf_faces[k]
@@ -163,5 +134,5 @@ def upload_transport(renderer, arrays: dict) -> None:
     renderer.static.update(dev)
 
 
-__all__ = ["MAX_GAUSSIANS", "view_tables", "decode_gaussians", "pack_gaussians", "transport_arrays",
+__all__ = ["MAX_GAUSSIANS", "view_tables", "pack_gaussians", "transport_arrays",
            "load_transport_objects", "attach_transport", "upload_transport"]

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sgpipe.artifacts.transport import (  # noqa: F401  (decode: the artifact's reader)
+    decode_gaussians as decode, oct_decode, read_gaussians, sigma_decode)
 from sgpipe.transport.views import N_VIEWS, view_set
 
 MASK_BYTES = (N_VIEWS + 7) // 8
@@ -27,34 +29,14 @@ def oct_encode(d):
     return np.round((np.clip(q, -1, 1) + 1) * 0.5 * 65535).astype(np.uint16)
 
 
-def oct_decode(e):
-    """Octahedral uint16 (..., 2) → unit directions (..., 3)."""
-    q = np.asarray(e, float) / 65535 * 2 - 1
-    x, y = q[..., 0], q[..., 1]
-    z = 1 - np.abs(x) - np.abs(y)
-    t = np.maximum(-z, 0.0)
-    x = x - np.where(x >= 0, t, -t)
-    y = y - np.where(y >= 0, t, -t)
-    v = np.stack([x, y, z], -1)
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
 def sigma_encode(sigma, lo, hi):
     """σ → uint8 code, uniform in ln σ over [lo, hi]."""
     t = (np.log(np.clip(sigma, lo, hi)) - np.log(lo)) / (np.log(hi) - np.log(lo))
     return np.round(t * 255).astype(np.uint8)
 
 
-def sigma_decode(code, lo, hi):
-    return np.exp(np.log(lo) + np.asarray(code, float) / 255 * (np.log(hi) - np.log(lo)))
-
-
 def _pack(mask):
     return np.packbits(mask, axis=-1, bitorder="little")
-
-
-def _unpack(bits):
-    return np.unpackbits(bits, axis=-1, count=N_VIEWS, bitorder="little").astype(bool)
 
 
 def encode(mu, sigma, w, sigma_lo: float, sigma_hi: float) -> dict:
@@ -79,23 +61,6 @@ def encode(mu, sigma, w, sigma_lo: float, sigma_hi: float) -> dict:
     }
 
 
-def decode(arrays: dict):
-    """Full arrays (mu, sigma, w, stored (X, 92) bool) of `encode`'s output; views not stored
-    get μ = 0, σ = 0 and w = 0 (the renderer never reaches them with a nonzero weight)."""
-    stored, weighted = _unpack(arrays["stored_mask"]), _unpack(arrays["weight_mask"])
-    K = arrays["dirs"].shape[1]
-    X = stored.shape[0]
-    lo, hi = arrays["sigma_range"]
-    mu = np.zeros((X, N_VIEWS, K, 3))
-    sigma = np.zeros((X, N_VIEWS, K))
-    w = np.zeros((X, N_VIEWS, K, 3))
-    mu[stored] = oct_decode(arrays["dirs"])
-    sigma[stored] = sigma_decode(arrays["sigma_code"], lo, hi)
-    scale = np.repeat(arrays["weight_scale"].astype(np.float64), weighted.sum(1))
-    w[weighted] = arrays["weights"].astype(np.float64) * scale[:, None, None]
-    return mu, sigma, w, stored
-
-
 def nbytes(arrays: dict) -> int:
     """Bytes of the compact representation (the arrays' payloads)."""
     return int(sum(np.asarray(a).nbytes for a in arrays.values()))
@@ -109,9 +74,3 @@ def paper_bytes(vertices: int, gaussians: int) -> int:
 __all__ = ["oct_encode", "oct_decode", "sigma_encode", "sigma_decode", "encode", "decode",
            "nbytes", "paper_bytes", "MASK_BYTES"]
 
-
-def read_gaussians(folder, obj: str):
-    """(mu (X, 92, K, 3), sigma (X, 92, K) radians, w (X, 92, K, 3), stored (X, 92) bool) of one
-    object's transport artifact."""
-    from sgpipe.artifacts.transport import read_packed_gaussians
-    return decode(read_packed_gaussians(folder, obj))

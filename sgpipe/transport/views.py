@@ -8,9 +8,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.spatial import ConvexHull
 
+from sgpipe.artifacts.transport import N_VIEWS  # noqa: F401  (the artifact's mask width)
 from sgpipe.core.sphere import icosahedral_geodesic
-
-N_VIEWS = 92
 
 
 @lru_cache(maxsize=4)

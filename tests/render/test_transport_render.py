@@ -237,18 +237,3 @@ def test_transport_mesh_must_be_the_visibility_mesh(tmp_path):
         with pytest.raises(BadInput, match="visibility mesh") as e:
             load_transport_objects(cfg, tmp_path, [other])
         assert e.value.key == "transport.sphere_subdivisions"
-
-
-def test_decode_matches_the_transport_package():
-    """The render layer's reader of gaussians.npz equals sgpipe.transport.compact.decode on an
-    encoded random fit (2 Gaussians, views without weight, a zero-weight vertex)."""
-    from sgpipe.render.transport_data import decode_gaussians
-    from sgpipe.transport import compact
-    mu, sigma, w = _random_gaussians(7, 2)
-    w[:, RNG.random(N_VIEWS) < 0.4] = 0.0
-    w[3] = 0.0
-    packed = compact.encode(mu, sigma, w, 0.02, 1.5)
-    ref_mu, ref_sigma, ref_w, _ = compact.decode(packed)
-    got = decode_gaussians(packed)
-    for a, b in zip(got, (ref_mu, ref_sigma, ref_w)):
-        np.testing.assert_array_equal(a, b)
