@@ -1,6 +1,8 @@
 """Sphere point sets, the Shirley–Chiu concentric hemisphere map, and local shading frames."""
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 _GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
@@ -61,6 +63,36 @@ def icosahedral_geodesic(freq=3):
     out = np.array(pts)
     assert len(out) == 10 * f * f + 2
     return out
+
+
+@lru_cache(maxsize=4)
+def icosahedral_view_set(freq: int = 3):
+    """Green06 §3.2's view set: (dirs (V, 3), triangles (F, 3) int64, neighbours (V, 6) int64
+    padded with −1, neighbour counts (V,)) of the icosahedral geodesic: its triangles are the
+    hull faces (outward-wound), its neighbours the hull edges (5 at the 12 icosahedron
+    corners, 6 else)."""
+    from scipy.spatial import ConvexHull
+    dirs = icosahedral_geodesic(freq)
+    hull = ConvexHull(dirs)
+    tri = np.asarray(hull.simplices, np.int64)
+    # outward winding: (b − a) × (c − a) points along the face's centroid
+    a, b, c = dirs[tri[:, 0]], dirs[tri[:, 1]], dirs[tri[:, 2]]
+    flip = np.einsum("ij,ij->i", np.cross(b - a, c - a), a + b + c) < 0
+    tri[flip] = tri[flip][:, [0, 2, 1]]
+    tri = tri[np.lexsort(tri.T[::-1])]            # a fixed order, independent of qhull's
+    nb = [set() for _ in range(len(dirs))]
+    for i, j, k in tri:
+        nb[i] |= {j, k}
+        nb[j] |= {i, k}
+        nb[k] |= {i, j}
+    width = max(len(s) for s in nb)
+    table = np.full((len(dirs), width), -1, np.int64)
+    for v, s in enumerate(nb):
+        table[v, :len(s)] = sorted(s)
+    counts = np.array([len(s) for s in nb], np.int64)
+    for arr in (dirs, tri, table, counts):
+        arr.setflags(write=False)
+    return dirs, tri, table, counts
 
 
 # --- Shirley–Chiu concentric map, area-preserving uniform hemisphere (local frame, z up) ----

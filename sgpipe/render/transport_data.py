@@ -20,18 +20,13 @@ SH_COEFFS = 25
 
 def view_tables() -> tuple[np.ndarray, np.ndarray]:
     """(vinv (F·3, 4) float32: per triangle of the 92 views' convex hull the rows of M⁻¹,
-    M = [a b c] its views as columns; vtri (F, 4) int32: its view indices). The views are
-    `core.sphere.icosahedral_geodesic(3)` in its order (= sgpipe.transport.views.view_set);
-    any triangle holding q gives the same weights, so the face order is free."""
-    from scipy.spatial import ConvexHull
-    from sgpipe.core.sphere import icosahedral_geodesic
-    dirs = icosahedral_geodesic(3)
-    tri = np.asarray(ConvexHull(dirs).simplices, np.int64)
-    tri = tri[np.lexsort(tri.T[::-1])]                      # independent of qhull's order
+    M = [a b c] its views as columns; vtri (F, 4) int32: its view indices), from
+    `core.sphere.icosahedral_view_set` (what sgpipe.transport.views.nearest_views walks)."""
+    from sgpipe.core.sphere import icosahedral_view_set
+    dirs, tri, _, _ = icosahedral_view_set(3)
     M = np.stack([dirs[tri[:, 0]], dirs[tri[:, 1]], dirs[tri[:, 2]]], axis=-1)
-    inv = np.linalg.inv(M)                                  # (F, 3, 3)
     vinv = np.zeros((len(tri), 3, 4), np.float32)
-    vinv[..., :3] = inv
+    vinv[..., :3] = np.linalg.inv(M)                        # (F, 3, 3)
     vtri = np.zeros((len(tri), 4), np.int32)
     vtri[:, :3] = tri
     return vinv.reshape(-1, 4), vtri

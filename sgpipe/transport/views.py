@@ -3,41 +3,10 @@ the three-nearest-views lookup with barycentric weights used to interpolate acro
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
-from scipy.spatial import ConvexHull
 
 from sgpipe.artifacts.transport import N_VIEWS  # noqa: F401  (the artifact's mask width)
-from sgpipe.core.sphere import icosahedral_geodesic
-
-
-@lru_cache(maxsize=4)
-def view_set(freq: int = 3):
-    """(dirs (V, 3), triangles (F, 3) int64, neighbours (V, 6) int64 padded with −1,
-    neighbour counts (V,)) of the icosahedral geodesic: its triangles are the hull faces
-    (outward-wound), its neighbours the hull edges (5 at the 12 icosahedron corners, 6 else)."""
-    dirs = icosahedral_geodesic(freq)
-    hull = ConvexHull(dirs)
-    tri = np.asarray(hull.simplices, np.int64)
-    # outward winding: (b − a) × (c − a) points along the face's centroid
-    a, b, c = dirs[tri[:, 0]], dirs[tri[:, 1]], dirs[tri[:, 2]]
-    flip = np.einsum("ij,ij->i", np.cross(b - a, c - a), a + b + c) < 0
-    tri[flip] = tri[flip][:, [0, 2, 1]]
-    tri = tri[np.lexsort(tri.T[::-1])]            # a fixed order, independent of qhull's
-    nb = [set() for _ in range(len(dirs))]
-    for i, j, k in tri:
-        nb[i] |= {j, k}
-        nb[j] |= {i, k}
-        nb[k] |= {i, j}
-    width = max(len(s) for s in nb)
-    table = np.full((len(dirs), width), -1, np.int64)
-    for v, s in enumerate(nb):
-        table[v, :len(s)] = sorted(s)
-    counts = np.array([len(s) for s in nb], np.int64)
-    for arr in (dirs, tri, table, counts):
-        arr.setflags(write=False)
-    return dirs, tri, table, counts
+from sgpipe.core.sphere import icosahedral_view_set as view_set
 
 
 def nearest_views(q, freq: int = 3):
