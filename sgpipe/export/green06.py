@@ -55,7 +55,7 @@ def load_transport(tr_dir: Path) -> list[TransportObject]:
 
 def _first_rows(mask_bytes: np.ndarray) -> np.ndarray:
     """Exclusive prefix sum of the set bits per vertex: each vertex's first table row."""
-    counts = np.unpackbits(mask_bytes, axis=-1, count=N_VIEWS, bitorder="little").sum(1)
+    counts = tr_art.unpack_views(mask_bytes).sum(1)
     return np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.float32)
 
 
