@@ -1,4 +1,4 @@
-"""PNG previews. Tone mapping (documented in the README): exposure scale, then Reinhard
+"""PNG previews, and reading 8/16-bit data images (textures, normal maps). Tone mapping (documented in the README): exposure scale, then Reinhard
 x/(1+x) per channel is NOT used — previews use a plain clamp after exposure so that
 values <= 1 keep their meaning, followed by the sRGB transfer curve, 8 bits."""
 
@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sgpipe.errors import BadInput
 from sgpipe.io.atomic import atomic_path
 
 
@@ -41,3 +42,25 @@ def write_png(path: str | os.PathLike, image: np.ndarray, *, exposure: float = 0
         out.write_image(np.ascontiguousarray(img.astype(np.uint8)))
         out.close()
     return path
+
+
+def read_data_image(path: str | os.PathLike, key: str | None = None) -> tuple[np.ndarray, str]:
+    """A data image's texels as float32 (H, W, C), integer formats normalised to [0, 1], no
+    colour decoding and alpha unassociated (it must not scale RGB), with its pixel format's
+    name; BadInput naming the file and key when it cannot be read."""
+    import OpenImageIO as oiio
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)
+    inp = oiio.ImageInput.open(str(path), config)
+    if inp is None:
+        raise BadInput(f"unreadable image ({oiio.geterror().strip() or 'unknown format'})",
+                       file=path, key=key)
+    try:
+        fmt = str(inp.spec().format)
+        data = inp.read_image(oiio.FLOAT)
+    finally:
+        inp.close()
+    if data is None or np.size(data) == 0:
+        raise BadInput("unreadable image (no pixels)", file=path, key=key)
+    img = np.asarray(data, np.float32)
+    return (img if img.ndim == 3 else img[..., None]), fmt

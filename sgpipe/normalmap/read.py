@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from sgpipe.errors import BadInput
+from sgpipe.io import read_data_image
 
 #: The formats read here (extension → what it holds).
 SUPPORTED = {".png": "8- or 16-bit PNG", ".exr": "float EXR (half or full)"}
@@ -34,7 +35,6 @@ def _first_texel(mask: np.ndarray) -> str:
 def read_raw(path: str | Path, key: str | None) -> tuple[np.ndarray, str]:
     """The file's texels as float64 (H, W, C) in its own units (PNG: [0, 1]) and a word for
     its pixel format; BadInput for missing, unreadable or unsupported files."""
-    import OpenImageIO as oiio
     path = Path(path)
     ext = path.suffix.lower()
     if ext not in SUPPORTED:
@@ -43,21 +43,8 @@ def read_raw(path: str | Path, key: str | None) -> tuple[np.ndarray, str]:
                        key=key)
     if not path.is_file():
         raise BadInput("file not found", file=path, key=key)
-    config = oiio.ImageSpec()
-    config.attribute("oiio:UnassociatedAlpha", 1)   # PNG alpha must not scale the normals
-    inp = oiio.ImageInput.open(str(path), config)
-    if inp is None:
-        raise BadInput(f"unreadable image ({oiio.geterror().strip() or 'unknown format'})",
-                       file=path, key=key)
-    try:
-        fmt = str(inp.spec().format)
-        data = inp.read_image(oiio.FLOAT)     # integer formats normalised to [0, 1]
-    finally:
-        inp.close()
-    if data is None or np.size(data) == 0:
-        raise BadInput("unreadable image (no pixels)", file=path, key=key)
-    img = np.asarray(data, np.float64)
-    return (img if img.ndim == 3 else img[..., None]), fmt
+    img, fmt = read_data_image(path, key)
+    return img.astype(np.float64), fmt
 
 
 def decode_normals(c: np.ndarray) -> np.ndarray:

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from sgpipe.errors import BadInput
-from sgpipe.io import read_exr
+from sgpipe.io import read_data_image, read_exr
 from sgpipe.render.envdata import EnvData
 from sgpipe.render.materials import Material, pack_materials
 from sgpipe.render.methods import Method
@@ -53,20 +53,7 @@ def _image(path, key) -> np.ndarray:
 
 def _read_ldr(path, key) -> np.ndarray:
     """8/16-bit images (PNG) as linear values in [0, 1] (no sRGB decoding: data textures)."""
-    import OpenImageIO as oiio
-    config = oiio.ImageSpec()
-    config.attribute("oiio:UnassociatedAlpha", 1)   # data textures: alpha must not scale RGB
-    inp = oiio.ImageInput.open(str(path), config)
-    if inp is None:
-        raise BadInput(f"unreadable image ({oiio.geterror().strip()})", file=path, key=key)
-    try:
-        data = inp.read_image(oiio.FLOAT)
-    finally:
-        inp.close()
-    if data is None:
-        raise BadInput("unreadable image", file=path, key=key)
-    img = np.asarray(data, np.float32)
-    return img if img.ndim == 3 else img[..., None]
+    return read_data_image(path, key)[0]
 
 
 def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
