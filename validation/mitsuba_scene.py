@@ -34,6 +34,17 @@ def _mesh(mi, spec, index, bsdf):
 ENV_FACTOR = (4, 16)
 
 
+def _integrator(rs) -> dict:
+    """`direct` for sgpipe's direct-only reference; with `render.reference_bounces` N > 0 the
+    `path` integrator with max_depth N + 2 (1: emitters seen directly, 2: direct lighting, each
+    further segment one indirect bounce) and Russian roulette never reached, as sgpipe's."""
+    bounces = int(getattr(rs, "reference_bounces", 0) or 0)
+    if bounces == 0:
+        return {"type": "direct", "hide_emitters": not rs.background}
+    return {"type": "path", "max_depth": bounces + 2, "rr_depth": bounces + 3,
+            "hide_emitters": not rs.background}
+
+
 def scene_dict(cfg, *, spp: int = 64, env_factor=ENV_FACTOR, centre: bool = False) -> dict:
     """The Mitsuba scene dict of a validated sgpipe config (see docs/VALIDATION.md); `centre`:
     for render_centre, which never uses the film's filter (box then)."""
@@ -44,7 +55,7 @@ def scene_dict(cfg, *, spp: int = 64, env_factor=ENV_FACTOR, centre: bool = Fals
     rs = cfg.render
     cam = sensor_params(rs.camera)
     d = {"type": "scene",
-         "integrator": {"type": "direct", "hide_emitters": not rs.background},
+         "integrator": _integrator(rs),
          "sensor": {"type": "perspective", "fov": cam["fov"], "fov_axis": cam["fov_axis"],
                     "to_world": mi.ScalarTransform4f(cam["to_world"]),
                     "film": {"type": "hdrfilm", "width": cam["width"],

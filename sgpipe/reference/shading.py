@@ -14,6 +14,8 @@ from sgpipe.reference.sampler import EnvSampler
 
 _ROWS_PER_PASS = 1 << 16  # sample rows per numpy batch inside a tile
 _LIGHT_STREAM = 0x11647A4EA  # seed tweak of the area lights' uniforms
+_BOUNCE_STREAM = 0x2B0C3E5D7  # seed tweak of the indirect bounces' uniforms
+_TNEAR = 1e-5                 # start of shadow and continuation rays past the offset origin
 
 
 # --- materials and lights -------------------------------------------------------------------
@@ -173,6 +175,79 @@ def _shade_hits(sh, rows, u, ul, strategy, mis):
     return out
 
 
+class _GivenRays:
+    """Stands in for the camera of `surface.primary_rows`, which traces the rays `rays_at`
+    returns: a bounce's continuation rays are given, not made from image-plane positions."""
+
+    def __init__(self, origins, dirs):
+        self.origins, self.dirs = origins, dirs
+
+    def rays_at(self, px, py):
+        return self.origins, self.dirs
+
+
+def _continue(sh, rows, u1, u2):
+    """BRDF-importance-sampled continuation of the paths at the hit rows: world directions
+    (M, 3) and throughput factors f·cos θ/p (M, 3), zero where the sample failed or points
+    below the geometric surface."""
+    pos, n, t, b, ng, view, obj, tex = (rows[k] for k in ("pos", "n", "t", "b", "ng", "view",
+                                                          "obj", "tex"))
+    dirs = np.zeros((len(pos), 3))
+    weight = np.zeros((len(pos), 3))
+    for m in np.unique(obj):
+        sel = np.flatnonzero(obj == m)
+        o_loc = np.stack([np.einsum("ij,ij->i", view[sel], t[sel]),
+                          np.einsum("ij,ij->i", view[sel], b[sel]),
+                          np.einsum("ij,ij->i", view[sel], n[sel])], -1)
+        i_loc, p = sh["brdfs"][m].sample(o_loc, u1[sel], u2[sel])
+        i_loc, p = np.asarray(i_loc, np.float64), np.asarray(p, np.float64)
+        wd = _to_world(i_loc, t[sel], b[sel], n[sel])
+        ok = ((p > 0) & (i_loc[:, 2] > 0) & np.isfinite(p) & np.isfinite(i_loc).all(axis=1)
+              & (np.einsum("ij,ij->i", wd, ng[sel]) > 0))
+        if not ok.any():
+            continue
+        k = sel[ok]
+        tx = None if tex is None else (tex[0][k], tex[1][k])
+        f = _brdf_eval(sh["brdfs"][m], o_loc[ok], i_loc[ok], tx)
+        dirs[k] = wd[ok] / np.linalg.norm(wd[ok], axis=1, keepdims=True)
+        weight[k] = f * (i_loc[ok, 2] / p[ok])[:, None]
+    return dirs, weight
+
+
+def _shade_paths(sh, rows, u, ul, ub, strategy, mis, bounces):
+    """Estimates (M, 3) of paths up to `bounces` indirect bounces: the direct estimate at the
+    first hit (`_shade_hits`, the same numbers as without bounces) plus, per bounce, a BRDF-
+    sampled continuation ray and the direct estimate (delta lights + MIS env/BRDF samples) at
+    the surface it hits times the path throughput Π f·cos/p. Light reaching a vertex straight
+    from the environment is the direct estimate's; a continuation that misses ends its path.
+    No Russian roulette: every path runs its bounces (or ends where it leaves the scene).
+    `ub` (M, bounces·(6 + 2·lights)): per bounce the continuation's 2 uniforms, the direct
+    techniques' 4 and the area lights' 2 per light."""
+    from sgpipe.reference.surface import primary_rows
+    out = _shade_hits(sh, rows, u, ul, strategy, mis)
+    n_l = 2 * len(sh["lights"]) if ul is not None else 0
+    stride = 6 + n_l
+    row_of = np.arange(len(out))          # original row of every live path
+    beta = np.ones((len(out), 3))
+    for k in range(bounces):
+        uk = ub[row_of, k * stride:(k + 1) * stride]
+        dirs, w = _continue(sh, rows, uk[:, 0], uk[:, 1])
+        go = np.flatnonzero((w > 0).any(axis=1) & np.isfinite(w).all(axis=1))
+        if go.size == 0 or sh["tracer"] is None:
+            break
+        org = _offset(rows["pos"][go], rows["ng"][go]) + _TNEAR * dirs[go]
+        nxt = primary_rows(sh["tracer"], _GivenRays(org, dirs[go]), None, None, sh["maps"])
+        hit = go[nxt["idx"]]
+        if hit.size == 0:
+            break
+        row_of, beta = row_of[hit], beta[hit] * w[hit]
+        rows = {key: nxt[key] for key in ("pos", "n", "t", "b", "ng", "view", "obj", "tex")}
+        uk = uk[hit]
+        est = _shade_hits(sh, rows, uk[:, 2:6], uk[:, 6:] if n_l else None, strategy, mis)
+        out[row_of] += beta * est
+    return out
+
+
 def shade_tile(task) -> dict:
     """Render one tile (module-level for map_chunks): per pixel and sample a camera ray through
     the pixel filter's sub-pixel position, its first hit shaded (or the background where it
@@ -186,6 +261,7 @@ def shade_tile(task) -> dict:
     npx = len(pid)
     spp, ck = opts["spp"], opts["checkpoints"]
     strategy, mis, seed = opts["strategy"], opts["mis"], opts["seed"]
+    bounces = int(opts.get("bounces", 0))
     s_sum = np.zeros((npx, 3))
     s_sq = np.zeros((npx, 3))
     hits = np.zeros(npx, np.int64)
@@ -224,7 +300,13 @@ def shade_tile(task) -> dict:
             if n_area:   # the area lights' own stream: the other numbers stay as they were
                 ul = jit.uniforms(np.uint64(seed ^ _LIGHT_STREAM), pid.astype(np.int64), done,
                                   ns, 2 * len(sh["lights"])).reshape(npx * ns, -1)[live]
-            est[live] = _shade_hits(sh, take, u[live], ul, strategy, mis)
+            if bounces:  # interreflection: the bounces' own stream, the rest unchanged
+                ub = jit.uniforms(np.uint64(seed ^ _BOUNCE_STREAM), pid.astype(np.int64), done,
+                                  ns, bounces * (6 + (2 * len(sh["lights"]) if n_area else 0))
+                                  ).reshape(npx * ns, -1)[live]
+                est[live] = _shade_paths(sh, take, u[live], ul, ub, strategy, mis, bounces)
+            else:
+                est[live] = _shade_hits(sh, take, u[live], ul, strategy, mis)
         hits += (h >= 0).reshape(npx, ns).sum(axis=1)
         jit.accumulate(est, npx, ns, s_sum, s_sq)
         done = nxt
