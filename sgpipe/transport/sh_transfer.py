@@ -4,6 +4,14 @@ l = 0…4, 25 coefficients) in the world frame, integrated over the light-cube t
 
 Diffuse exit radiance is then f_d · Σ_k L_k t_k with L_k the lighting's SH coefficients in the
 same (world, +Z-pole) basis of `sgpipe.core.sh`.
+
+Interreflected transfer (Sloan et al. 2002 §5, the bounce integral): the occluded directions
+bring the radiance leaving the surfaces they meet, t_k += Σ_{j occluded} Ω_j (n·ω_j) ⟨L_y⟩_k
+with ⟨L_y⟩_k that surface's outgoing radiance per unit SH lighting coefficient. Sloan gathers
+it from the neighbours' diffuse transfer vectors, pass after pass; here it is estimated by
+paths from the hit point (its BRDF's importance samples through up to `bounces` surfaces, each
+escaping path adding throughput × Y_k(escape direction)), so glossy neighbours count too and the
+work stays per vertex. The transfer becomes RGB (the neighbours' colours).
 """
 
 from __future__ import annotations
@@ -11,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from sgpipe.core.sh import sh_eval, sh_expand_bands, sh_irradiance_coeffs
-from sgpipe.transport.sampling import LightCube
+from sgpipe.transport.sampling import LightCube, PathScene, follow_paths
 
 SH_LMAX = 4   # 5th order: bands 0..4
 
@@ -34,4 +42,27 @@ def clamped_cosine_sh(normal, lmax: int = SH_LMAX) -> np.ndarray:
     return a * sh_eval(np.asarray(normal, float), lmax)
 
 
-__all__ = ["SH_LMAX", "texel_basis", "transfer_vector", "clamped_cosine_sh"]
+def interreflected_transfer(scene: PathScene, light: LightCube, position, normal, visibility,
+                            *, paths: int, bounces: int, offset: float, rng,
+                            lmax: int = SH_LMAX) -> np.ndarray:
+    """(K, 3) indirect transfer (module docstring): for every light texel above the horizon
+    whose ray is occluded, `paths` paths from the surface it meets; to be added to the
+    shadowed `transfer_vector`. Zero for `bounces` < 1."""
+    k = (lmax + 1) ** 2
+    out = np.zeros((k, 3))
+    n = np.asarray(normal, np.float64)
+    cos = light.dirs @ n
+    occ = np.flatnonzero((cos > 0) & ~np.asarray(visibility, bool))
+    if bounces < 1 or len(occ) == 0:
+        return out
+    j = np.repeat(occ, paths)
+    dirs = light.dirs[j]
+    origin = np.asarray(position, np.float64) + offset * n
+    beta = np.repeat((light.omega[j] * cos[j] / paths)[:, None], 3, axis=1)
+    _, d, b = follow_paths(scene, np.broadcast_to(origin, dirs.shape), dirs, beta, bounces,
+                           offset, rng)
+    return sh_eval(d, lmax).T @ b if len(d) else out
+
+
+__all__ = ["SH_LMAX", "texel_basis", "transfer_vector", "clamped_cosine_sh",
+           "interreflected_transfer"]

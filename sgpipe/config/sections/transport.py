@@ -47,8 +47,18 @@ class TransportSection:
     vertex_limit: int = doc("Largest vertex count per object; a larger mesh is bad input "
                             "(the cost grows with vertices × 92 views × light texels).", 50000,
                             ge=1)
-    indirect: bool = doc("Add the indirect glossy transport by path tracing (Green06 §4.1). "
-                         "Not implemented yet: must be false.", False)
+    indirect: bool = doc("Add the indirect transport (Green06 §4.1 eq 5): the indirect glossy "
+                         "part T^IG by BRDF-importance-sampled paths along each view, and the "
+                         "interreflected SH transfer (sgpipe.transport.sampling / sh_transfer). "
+                         "Not wired into the stage yet: must be false.", False)
+    indirect_bounces: int = doc("With `indirect`: surfaces a path may meet after the vertex "
+                                "before it must leave the scene (absorbed otherwise), as "
+                                "`render.reference_bounces`.", 2, ge=1, le=8)
+    indirect_paths: int = doc("With `indirect`: paths per vertex and view for T^IG (drawn "
+                              "from the specular lobe, stratified in u1).", 128, ge=1,
+                              le=65536)
+    indirect_transfer_paths: int = doc("With `indirect`: paths per occluded light texel for "
+                                       "the interreflected SH transfer.", 4, ge=1, le=4096)
     ray_offset: float = doc("Self-intersection offset along the normal, as a fraction of the "
                             "scene's bounding-box diagonal (as `visibility.ray_offset`).", 1e-4,
                             gt=0, lt=0.1)
@@ -71,5 +81,6 @@ class TransportSection:
         if not self.sigma_min_resolved_deg() < self.sigma_max_deg:
             raise ValueError("sigma_max_deg: must be larger than sigma_min_deg")
         if self.indirect:
-            raise ValueError("indirect: indirect glossy transport is not implemented yet; "
-                             "set indirect: false")
+            raise ValueError("indirect: the indirect transport (sgpipe.transport.sampling."
+                             "vertex_indirect_transport, sh_transfer.interreflected_transfer) "
+                             "is not wired into the transport stage yet; set indirect: false")
