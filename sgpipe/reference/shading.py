@@ -1,6 +1,8 @@
 """Per-tile estimator of the `reference` method (contract: sgpipe.reference): material / light
-normalisation and the MIS estimator over one tile of hit pixels. `shade_tile` is the
-module-level function mapped over tiles by map_chunks."""
+normalisation and the MIS estimator over one tile of hit pixels; with `bounces` > 0 the paths
+go on through up to that many further surfaces (`_shade_paths`: interreflection, the rendering
+equation's Neumann series cut after N indirect bounces). `shade_tile` is the module-level
+function mapped over tiles by map_chunks."""
 
 from __future__ import annotations
 
