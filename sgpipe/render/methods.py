@@ -94,14 +94,24 @@ TRANSPORT_PARAMS = """
     __global const float4 *pyr_pts, const int n_pts,
     __global const float4 *pyr_raw, const int raw_n, const float env_scale"""
 
-#: ... what the normal-map methods (`vmf`, `normals_mip`, `toksvig`; Han07) take next: the
-#: packed pyramids (render.normalmap_data), per pixel the UV derivatives (scene.footprint),
-#: the diffuse SG light fit of the environment, the local lights.
+#: ... what the normal-map methods (`vmf`, `normals_mip`, `toksvig`, `engine_bake`, `nm_sh`;
+#: Han07) take next: the packed pyramids and per-object BRDF records (render.normalmap_data),
+#: per pixel the UV derivatives (scene.footprint), the environment's SH coefficients, the
+#: diffuse SG light fit, the local lights, then the accurate Γ_L chain (environment specular).
 NM_PARAMS = """
     __global const float4 *nm_data, __global const int4 *nm_levels, __global const int4 *nm_info,
     __global const float *nm_brdf, __global const float4 *gduv,
+    __global const float4 *nm_env_sh, const int n_env_sh,
     __global const float4 *env_sg, const int n_env_sg, const float env_scale,
-    __global const float4 *lights, const int n_lights"""
+    __global const float4 *lights, const int n_lights,
+    __global const float4 *pyr, __global const int *pyr_off, __global const int *pyr_res,
+    __global const float *pyr_lam, const int pyr_n, const float pyr_log_ratio,
+    const float4 env_mean,
+    __global const float4 *pyr_pts, const int n_pts,
+    __global const float4 *pyr_raw, const int raw_n"""
+
+#: The Han07 normal-map methods (stable names: the figures build on them).
+NORMALMAP_METHODS = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh")
 
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sg", "Wang09 SG + SSDF shadows", "sg_shade",
@@ -115,11 +125,17 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("transport", "Green06 per-vertex view-dependent Gaussians + SH diffuse PRT",
            "transport_shade", (PIXEL_PARAMS, TRANSPORT_PARAMS, TAIL_PARAMS),
            needs_transport=True),
-    Method("vmf", "Han07 vMF-filtered normal map, point/directional lights (eq 20, 24)",
-           "vmf_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
+    Method("vmf", "Han07 vMF-filtered normal map (Algorithm 2, eq 20–21 lights, eq 24–26 "
+           "environment)", "vmf_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS),
+           needs_normalmap=True),
     Method("normals_mip", "normalised MIP of the normal map (Han07 baseline)", "nmip_shade",
            (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
-    Method("toksvig", "Toksvig-scaled exponent from the MIP normal length", "toksvig_shade",
+    Method("toksvig", "Toksvig-scaled exponent (roughness) from the MIP normal length",
+           "toksvig_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
+    Method("engine_bake", "engine roughness bake: one lobe, κ from the MIP normal length, "
+           "α′ = √(α² + 2/κ)", "bake_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS),
+           needs_normalmap=True),
+    Method("nm_sh", "Han07 §5 SH-filtered normal map (eq 12: γ_lm × ρ̂_l)", "nmsh_shade",
            (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
 )}
 

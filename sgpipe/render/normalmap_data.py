@@ -1,19 +1,26 @@
 """Device layout of the Han07 normal-map pyramids (`<out>/normalmap/<map>/`, docs/HAN07.md) for
-the `vmf`, `normals_mip` and `toksvig` kernels (kernels/include/nm_shade.h).
+the normal-map kernels `vmf`, `normals_mip`, `toksvig`, `engine_bake`, `nm_sh`
+(kernels/include/nm_shade.h).
 
-    data = NormalMapData.pack([per_object_pyramid_or_None, ...], exponents=[s, ...])
-    buffers = data.device_buffers(ctx)    # nm_data, nm_levels, nm_info, nm_brdf
+    data = NormalMapData.pack([per_object_pyramid_or_None, ...], params=[s or α, ...],
+                              models=[...])
+    buffers = data.device_buffers(ctx)    # nm_data, nm_levels, nm_info, nm_brdf, nm_env_sh
 
 Layout (float4 `nm_data`): per map and level ℓ (side m) first the lobes, texel-major in image
 rows (row 0 = v = 1) then lobe j: (α_j, α_j·r_j) — eq 24's linear textures, interpolated before
-κ and μ are recovered — then the plain MIP of the normals (mean.xyz, 0) per texel.
-`nm_levels` int4 per (map, level): (lobe offset, side, mean offset, 0). `nm_info` int4 per
-scene object: (first level row, levels, lobes J, has map). `nm_brdf` float4 per object:
-(Blinn–Phong exponent s, max taps along the footprint's major axis (1: isotropic), 0, 0)."""
+κ and μ are recovered — then the plain MIP of the normals (mean.xyz, 0) per texel, then the SH
+NDF coefficients γ_lm (⌈K/4⌉ float4 per texel, K = (l* + 1)², zero-padded).
+`nm_levels` int4 per (map, level): (lobe offset, side, mean offset, SH offset). `nm_info` int4
+per scene object: (first level row, levels, lobes J, has map). `nm_brdf` NM_BRDF_STRIDE floats
+per object: Blinn–Phong exponent s or microfacet roughness (Beckmann α, Cook–Torrance m), max
+taps along the footprint's major axis (1: isotropic), model (BRDF_MODELS), K, ρ̂_0 … ρ̂_8 of the
+specular function the SH method filters (eq 11), environment specular on (1/0), 0, 0.
+`nm_env_sh` float4 per coefficient: the environment's radiance SH L_lm (world, l ≤ 2)."""
 
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,24 +28,49 @@ import numpy as np
 
 from sgpipe.errors import BadInput
 
+#: Material models the kernels shade (nm_shade.h NM_LAMBERT … NM_COOK) → model code.
+BRDF_MODELS = {"lambert": 0, "blinn_phong": 1, "beckmann": 2, "cook_torrance": 3}
+BRDF_STRIDE = 16     # nm_shade.h NM_BRDF_STRIDE
+RHO0 = 4             # first ρ̂_l slot
+ENV_SLOT = 13        # environment specular on
+SH_LMAX = 8          # l* ≤ 8 (nm_shade.h NM_MAX_SH4 = 21 float4)
+
 
 @dataclass
 class NormalMapPyramid:
-    """One map's levels: α (m, m, J), α·r (m, m, J, 3) and the plain mean normal (m, m, 3)."""
+    """One map's levels: α (m, m, J), α·r (m, m, J, 3), the plain mean normal (m, m, 3) and
+    optionally the SH NDF coefficients γ_lm (m, m, K)."""
 
     alpha: list
     alpha_r: list
     mean: list
+    gamma: list | None = None
 
     @classmethod
-    def load(cls, nm_dir: Path, name: str) -> "NormalMapPyramid":
-        from sgpipe.artifacts.normalmap import read_baselines, read_vmf
-        v = read_vmf(nm_dir, name)
+    def load(cls, nm_dir: Path, name: str, *, need_vmf: bool = True,
+             need_sh: bool = False) -> "NormalMapPyramid":
+        from sgpipe.artifacts.normalmap import SH, VMF, map_file, read_baselines, read_sh, read_vmf
         b = read_baselines(nm_dir, name)
-        if len(b["mean"]) != len(v.alpha):
-            raise BadInput("vmf.npz and baselines.npz have different level counts",
+        n = len(b["mean"])
+        if need_vmf or (Path(nm_dir) / map_file(name, VMF)).is_file():
+            v = read_vmf(nm_dir, name)
+            alpha, alpha_r = v.alpha, v.alpha_r
+        else:        # no vMF pyramid (normalmap.methods without vmf): zero lobes
+            alpha = [np.zeros(m.shape[:2] + (0,), np.float32) for m in b["mean"]]
+            alpha_r = [np.zeros(m.shape[:2] + (0, 3), np.float32) for m in b["mean"]]
+        gamma = None
+        if need_sh:
+            if not (Path(nm_dir) / map_file(name, SH)).is_file():
+                raise BadInput("method nm_sh needs the SH pyramid: add `sh` to normalmap.methods",
+                               file=Path(nm_dir) / map_file(name, SH), key="normalmap.methods")
+            gamma, lmax = read_sh(nm_dir, name)
+            if lmax > SH_LMAX:
+                raise BadInput(f"nm_sh renders SH orders up to {SH_LMAX}, got {lmax}",
+                               file=Path(nm_dir) / map_file(name, SH), key="normalmap.sh_order")
+        if len(alpha) != n or (gamma is not None and len(gamma) != n):
+            raise BadInput("vmf.npz, sh.npz and baselines.npz have different level counts",
                            file=Path(nm_dir) / name, key=f"normalmap.{name}")
-        return cls(v.alpha, v.alpha_r, b["mean"])
+        return cls(alpha, alpha_r, b["mean"], gamma)
 
 
 @dataclass
@@ -46,40 +78,73 @@ class NormalMapData:
     data: np.ndarray      # (K, 4) float32
     levels: np.ndarray    # (L, 4) int32
     info: np.ndarray      # (objects, 4) int32
-    brdf: np.ndarray      # (objects, 4) float32
+    brdf: np.ndarray      # (objects, BRDF_STRIDE) float32
+    env_sh: np.ndarray    # (max(n, 1), 4) float32
+    n_env_sh: int = 0
 
     @classmethod
     def empty(cls, n_objects: int) -> "NormalMapData":
         return cls.pack([None] * max(n_objects, 1), [1.0] * max(n_objects, 1))
 
     @classmethod
-    def pack(cls, pyramids: list, exponents: list, max_taps: int = 1) -> "NormalMapData":
-        """Pack per-object pyramids (None: no map; the same object shares its rows)."""
+    def pack(cls, pyramids: list, params: list, max_taps: int = 1, models: list | None = None,
+             rho_hat: list | None = None) -> "NormalMapData":
+        """Pack per-object pyramids (None: no map; the same object shares its rows) with each
+        object's BRDF parameter (Blinn–Phong s, or microfacet roughness), model code
+        (default Blinn–Phong) and ρ̂_l of its specular function (nm_sh)."""
         parts, levels, info, off = [], [], [], 0
         seen: dict[int, tuple] = {}
-        for p in pyramids:
+        nsh = [0] * len(pyramids)
+        for k, p in enumerate(pyramids):
             if p is None:
                 info.append((0, 0, 0, 0))
                 continue
             if id(p) not in seen:
                 first = len(levels)
-                for a, ar, mean in zip(p.alpha, p.alpha_r, p.mean):
+                for lv, (a, ar, mean) in enumerate(zip(p.alpha, p.alpha_r, p.mean)):
                     m, j = a.shape[0], a.shape[2]
                     lob = np.concatenate([np.asarray(a, np.float32)[..., None],
                                           np.asarray(ar, np.float32)], -1).reshape(-1, 4)
                     mn = np.zeros((m * m, 4), np.float32)
                     mn[:, :3] = np.asarray(mean, np.float32).reshape(-1, 3)
-                    levels.append((off, m, off + len(lob), 0))
-                    parts += [lob, mn]
-                    off += len(lob) + len(mn)
+                    sh = np.zeros((0, 4), np.float32)
+                    if p.gamma is not None:
+                        g = np.asarray(p.gamma[lv], np.float32).reshape(m * m, -1)
+                        k4 = -(-g.shape[1] // 4)
+                        sh = np.zeros((m * m, 4 * k4), np.float32)
+                        sh[:, :g.shape[1]] = g
+                        sh = sh.reshape(-1, 4)
+                    levels.append((off, m, off + len(lob), off + len(lob) + len(mn)))
+                    parts += [lob, mn, sh]
+                    off += len(lob) + len(mn) + len(sh)
                 seen[id(p)] = (first, len(p.alpha), p.alpha[0].shape[2], 1)
             info.append(seen[id(p)])
-        brdf = np.zeros((len(info), 4), np.float32)
-        brdf[:, 0] = exponents
+            if p.gamma is not None:
+                nsh[k] = int(np.asarray(p.gamma[0]).shape[-1])
+        brdf = np.zeros((len(info), BRDF_STRIDE), np.float32)
+        brdf[:, 0] = params
         brdf[:, 1] = max_taps
+        brdf[:, 2] = models if models is not None else BRDF_MODELS["blinn_phong"]
+        brdf[:, 3] = nsh
+        for k, rho in enumerate(rho_hat or []):
+            if rho is not None:
+                brdf[k, RHO0:RHO0 + len(rho)] = np.asarray(rho, np.float32)[:SH_LMAX + 1]
         data = np.concatenate(parts) if parts else np.zeros((1, 4), np.float32)
+        if len(data) == 0:
+            data = np.zeros((1, 4), np.float32)
         return cls(data, np.asarray(levels or [(0, 1, 0, 0)], np.int32).reshape(-1, 4),
-                   np.asarray(info, np.int32).reshape(-1, 4), brdf)
+                   np.asarray(info, np.int32).reshape(-1, 4), brdf, np.zeros((1, 4), np.float32))
+
+    def with_environment(self, light_sh: np.ndarray | None, specular: bool) -> "NormalMapData":
+        """The environment's radiance SH (first 9 coefficients, world) and whether its
+        specular part is shaded (no environment: skip the Γ_L lookups)."""
+        if light_sh is not None:
+            c = np.asarray(light_sh, np.float32)[:9]
+            self.env_sh = np.zeros((max(len(c), 1), 4), np.float32)
+            self.env_sh[:len(c), :3] = c
+            self.n_env_sh = len(c)
+        self.brdf[:, ENV_SLOT] = 1.0 if specular else 0.0
+        return self
 
     def device_buffers(self, ctx) -> dict:
         """The kernels' `nm_*` parameters."""
@@ -87,17 +152,20 @@ class NormalMapData:
         return dict(nm_data=opencl.to_device(ctx, self.data),
                     nm_levels=opencl.to_device(ctx, self.levels, dtype=np.int32),
                     nm_info=opencl.to_device(ctx, self.info, dtype=np.int32),
-                    nm_brdf=opencl.to_device(ctx, self.brdf))
+                    nm_brdf=opencl.to_device(ctx, self.brdf.reshape(-1)),
+                    nm_env_sh=opencl.to_device(ctx, self.env_sh), n_env_sh=self.n_env_sh)
 
 
 def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
-    """The pyramids of the scene's normal-mapped objects from `<out>/normalmap/index.json` and
-    each object's Blinn–Phong exponent (its material `specs[k]`; other models are refused: eq 20
-    is the closed form these kernels implement)."""
-    exponents = [_blinn_phong_exponent(spec) for spec in specs]
+    """The pyramids of the scene's normal-mapped objects from `<out>/normalmap/index.json`, each
+    object's material (its `specs[k]`: Lambert, Blinn–Phong, Beckmann or Cook–Torrance; other
+    models are refused: eq 20 / 21 are the closed forms these kernels implement) and the
+    environment (SH for nm_sh's diffuse term; specular through Γ_L when there is one)."""
+    lobes = [material_lobe(spec) for spec in specs]
     nm_dir = Path(out_dir) / "normalmap"
     index = nm_dir / "index.json"
     objs = cfg.scene.objects
+    methods = set(cfg.render.methods)
     if any(o.normal_map is not None for o in objs) and not index.is_file():
         raise BadInput("normal-map pyramids not found: add a `normalmap:` section and run "
                        "`sgpipe precompute` (or `sgpipe run`) with the same --out",
@@ -118,26 +186,65 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
             raise BadInput(f"object {o.name!r} has no normal-map pyramid in {index.name}",
                            file=index, key=f"scene.objects.{k}.normal_map")
         if name not in cache:
-            cache[name] = NormalMapPyramid.load(nm_dir, name)
+            cache[name] = NormalMapPyramid.load(nm_dir, name, need_vmf="vmf" in methods,
+                                                need_sh="nm_sh" in methods)
         pyramids.append(cache[name])
     taps = int(getattr(cfg.render, "normalmap_max_taps", 1))
-    return NormalMapData.pack(pyramids, exponents, taps)
+    rho = [None if p is None or p.gamma is None else
+           specular_sh_coeffs(model, param, int(round(math.sqrt(p.gamma[0].shape[-1]))) - 1)
+           for p, (model, param) in zip(pyramids, lobes)]
+    data = NormalMapData.pack(pyramids, [prm for _, prm in lobes], taps,
+                              [BRDF_MODELS[mdl] for mdl, _ in lobes], rho)
+    light_sh = None
+    if cfg.envmap is not None:
+        from sgpipe.artifacts.envmap import read_light_sh
+        light_sh = np.asarray(read_light_sh(Path(out_dir) / "envmap")["coeffs"], np.float64)
+    return data.with_environment(light_sh, cfg.envmap is not None)
 
 
-def _blinn_phong_exponent(spec) -> float:
-    """The exponent s of a Blinn–Phong material spec without Fresnel (Lambert: no specular,
-    s unused); other models are BadInput."""
-    if spec.model == "lambert":
-        return 1.0
-    if spec.model != "blinn_phong":
-        raise BadInput(f"the normal-map methods shade Blinn–Phong materials (Han07 eq 20) "
-                       f"and Lambert; material {spec.name!r} is {spec.model!r}",
-                       key=f"fit.materials.{spec.name}.model")
+def material_lobe(spec) -> tuple[str, float]:
+    """(model, parameter) of a material spec: Blinn–Phong exponent s, Beckmann α or
+    Cook–Torrance m (isotropic; Blinn–Phong without Fresnel); Lambert: ('lambert', 1)."""
     params = dict(spec.params or {})
-    if params.get("fresnel", "none") != "none":
-        raise BadInput("the normal-map methods take fresnel: none",
-                       key=f"fit.materials.{spec.name}.params.fresnel")
-    return float(params.get("exponent", 100.0))
+    if spec.model == "lambert":
+        return "lambert", 1.0
+    if spec.model not in BRDF_MODELS:
+        raise BadInput(f"the normal-map methods shade Lambert, Blinn–Phong (Han07 eq 20), "
+                       f"Beckmann and Cook–Torrance (eq 21) materials; material {spec.name!r} "
+                       f"is {spec.model!r}", key=f"fit.materials.{spec.name}.model")
+    if spec.model == "blinn_phong":
+        if params.get("fresnel", "none") != "none":
+            raise BadInput("the normal-map methods take fresnel: none for Blinn–Phong",
+                           key=f"fit.materials.{spec.name}.params.fresnel")
+        return "blinn_phong", float(params.get("exponent", 100.0))
+    if spec.model == "beckmann":
+        if "alpha_u" in params or "alpha_v" in params:
+            raise BadInput("the normal-map methods shade isotropic Beckmann (alpha)",
+                           key=f"fit.materials.{spec.name}.params.alpha_u")
+        return "beckmann", float(params.get("alpha", 0.1))
+    return "cook_torrance", float(params.get("m", 0.2))
+
+
+def specular_function(model: str, param: float):
+    """f(u) with ρ_s·cos = ks·F·G·f(n·h)/(n·o) (Beckmann, Cook–Torrance) or ρ_s = ks f(n·h)
+    (Blinn–Phong): the factor of the BRDF the SH method filters (eq 3, 11)."""
+    if model == "blinn_phong":
+        s = param
+        return lambda u: (s + 2.0) / (8.0 * math.pi) * np.maximum(u, 0.0) ** s
+    if model == "beckmann":
+        from sgpipe.normalmap.sh import beckmann_ndf
+        return lambda u: beckmann_ndf(u, param) / 4.0
+    if model == "cook_torrance":
+        m = param
+        return lambda u: np.where(u > 0, np.exp(-(np.arccos(np.clip(u, -1, 1)) / m) ** 2), 0.0
+                                  ) / math.pi
+    return lambda u: np.zeros_like(np.asarray(u, float))
+
+
+def specular_sh_coeffs(model: str, param: float, lmax: int) -> np.ndarray:
+    """ρ̂_l = 2π ∫ f(u) P_l(u) du, l ≤ lmax, of `specular_function` (eq 11, quadrature)."""
+    from sgpipe.normalmap.sh import zonal_coeffs
+    return zonal_coeffs(specular_function(model, param), lmax)
 
 
 def attach_normalmaps(renderer, data: NormalMapData) -> None:

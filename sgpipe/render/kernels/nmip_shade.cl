@@ -1,12 +1,12 @@
-/* Method `normals_mip`: Han07 normal-map filtering under point / directional lights
- * (kernels/include/nm_shade.h; NM_FILTER 1: 0 vMF mixture, 1 normalised MIP, 2 Toksvig). */
+/* Method `normals_mip`: the normalised MIP of the normals, the plain BRDF (Han07 baseline;
+ * kernels/include/nm_shade.h, NM_FILTER = NM_MIP). */
 #include "sg.h"
 #include "ssdf.h"
 #include "cubemap.h"
 #include "microfacet.h"
 #include "shading.h"
 #include "nm_shade.h"
-#define NM_FILTER 1
+#define NM_FILTER NM_MIP
 
 __kernel void nmip_shade(NMIP_SHADE_ARGS)
 {

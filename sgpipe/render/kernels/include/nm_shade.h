@@ -1,28 +1,53 @@
-/* Han07 normal-map filtering, point / directional lights (Algorithm 2, eq 20, 24): helpers of
- * the `vmf`, `normals_mip` and `toksvig` kernels; their common body is nm_shade_body.h,
- * included inside each kernel, the filter chosen by NM_FILTER.
+/* Han07 normal-map filtering (Algorithm 2, eq 12, 20–21, 24–26): helpers of the `vmf`,
+ * `normals_mip`, `toksvig`, `engine_bake` and `nm_sh` kernels; their common body is
+ * nm_shade_body.h, included inside each kernel, the filter chosen by NM_FILTER.
  *   lookup  trilinear in the pixel's texture footprint (isotropic level log2 of the longer UV
- *           derivative in texels, sgpipe.scene.footprint), of α_j and α_j·r_j (eq 24), then
- *           r = αr/α, κ = (3|r| − |r|³)/(1 − |r|²), μ = r/|r| (sgpipe.normalmap.vmf.lookup)
- *   vmf     Σ_j α_j · ks/4 · (s+2)/(s+1) · (s′_j+1)/(2π) (μ_j·h)^{s′_j} · (μ_j·i), s′ = κs/(κ+s)
- *           (eq 20 applied to the normalised Blinn–Phong ρ_s = ks (s+2)/(8π)(n·h)^s; the
- *           cosine and the view lift taken at the lobe axis), diffuse kd/π · max(0, n̄·i) with
- *           n̄ the plain MIP of the normals (linear in the NDF: exact while no normal faces away)
- *   normals_mip / toksvig  the same BRDF at n̄/|n̄|, exponent s or Toksvig's f·s,
- *           f = |n̄|/(|n̄| + s(1 − |n̄|)).
- * Lights are delta lights of the records' intensity (as the reference's default), unshadowed.
- * Environment: only its diffuse part, the sg method's SG-light sum (diffuse_env_sg, with the
- * SSDF visibility) about n̄/|n̄|; no environment specular in this step.
- * Layout of nm_*: sgpipe/render/normalmap_data.py. */
+ *           derivative in texels, or N taps along the longer one; sgpipe.scene.footprint), of
+ *           α_j and α_j·r_j (eq 24), then r = αr/α, κ = (3|r| − |r|³)/(1 − |r|²), μ = r/|r|
+ *           (sgpipe.normalmap.vmf.lookup); the SH method's γ_lm and the mean normal n̄ likewise
+ *   vmf     per lobe the material's specular lobe about μ_j with the convolved parameter:
+ *           Blinn–Phong s′ = κs/(κ+s) (eq 20, normalised (s′+1)/(2π) and scaled by the
+ *           material's ks (s+2)/(8π)·2π/(s+1)), Beckmann α′ = √(α² + 2/κ), Cook–Torrance
+ *           m′ = √(m² + 2/κ) with the amplitude m²/m′² (eq 21, α = m = 2σ); the cosine, masking,
+ *           the 1/(n·i)(n·o) factor and the view lift taken at the lobe axis, Fresnel at o·h;
+ *           diffuse kd/π · max(0, n̄·i) with n̄ the plain MIP of the normals (linear in the NDF)
+ *   normals_mip  the material's BRDF at n̄/|n̄|
+ *   toksvig Blinn–Phong exponent f·s, f = |n̄|/(|n̄| + s(1 − |n̄|)); microfacet roughness
+ *           α′² = α² + 2(1 − |n̄|)/|n̄| (the same variance, Blinn–Phong s ≈ 2/α²)
+ *   engine_bake  one lobe about n̄/|n̄| with κ = (3r − r³)/(1 − r²), r = |n̄|, then eq 20/21
+ *           (Filament / Godot: α′ = √(α² + 2/κ))
+ *   nm_sh   eq 12: ρ_eff(ω) = Σ_lm ρ̂_l γ_lm Y_lm(ω), ω = ω_h for the specular lobe (the
+ *           BRDF's remaining factors and the cosine at n̄, §4.3), ω = ω_i with Lambert's ρ̂_l
+ *           (l ≤ 2) for the diffuse term.
+ * Environment: specular per lobe (eq 24–26 with an SG in place of SH): the lobe's effective
+ * D about μ as an SG in h (Blinn–Phong λ = s′; Beckmann / Cook–Torrance λ = 2/α′²), warped to
+ * i-space (sg_warp: reflect o about μ, λ/(4|o·μ|)), times the BRDF's other factors and the
+ * cosine at the warped axis, through the accurate Γ_L pyramid (gamma_lookup_acc, the `sg`
+ * method's). nm_sh's specular lobe for the environment is the engine_bake lobe (n̄, κ(|n̄|)):
+ * general SH do not rotate cheaply (Han07 footnote 9). Diffuse: the `sg` method's SG-light sum
+ * about n̄ (diffuse_env_sg), nm_sh: Σ_{l ≤ 2} Â_l γ_lm L_lm with γ rotated to world.
+ * Lights are delta lights of the records' intensity (as the reference's default).
+ * Shadows: the object's SSDF visibility (shading.h, vis_*), lights as a hard horizon
+ * (f̂_h at λ = 2·10⁴), environment lobes through sg_times_visibility; off under
+ * FLAG_NO_VISIBILITY. Layout of nm_*: sgpipe/render/normalmap_data.py. */
 #ifndef SGPIPE_NM_SHADE_H
 #define SGPIPE_NM_SHADE_H
 
 #define NM_VMF 0
 #define NM_MIP 1
 #define NM_TOKSVIG 2
+#define NM_BAKE 3
+#define NM_SH 4
 #define NM_INV_2PI 0.159154943091895f
 #define NM_MAX_LOBES 8      /* normalmap.lobes ≤ 8 */
 #define NM_MAX_L0 16        /* level-0 normals kept apart (more taps: summed modulo 16) */
+#define NM_MAX_SH4 21       /* float4 of γ_lm per texel: (l* + 1)² ≤ 81 */
+#define NM_BRDF_STRIDE 16   /* floats per object in nm_brdf */
+#define NM_LAMBERT 0
+#define NM_BLINN 1
+#define NM_BECKMANN 2
+#define NM_COOK 3
+#define NM_LIGHT_LAMBDA 2e4f  /* delta lights' sharpness for the SSDF horizon (shading.h cap) */
 
 /* Bilinear fetch of slot `slot` (of `stride` per texel) of a level at (off, side m): repeat
  * addressing, row 0 = v = 1, texel centres at half-integers (vmf.bilinear, tex_bilinear). */
@@ -32,25 +57,27 @@ inline float4 nm_bilinear(__global const float4 *d, int off, int m, int stride, 
     float y = (1.0f - (uv.y - floor(uv.y))) * (float)m - 0.5f;
     float x0f = floor(x), y0f = floor(y);
     float fx = x - x0f, fy = y - y0f;
-    int x0 = ((int)x0f % m + m) % m, y0 = ((int)y0f % m + m) % m;
-    int x1 = (x0 + 1) % m, y1 = (y0 + 1) % m;
+    int x0 = (int)x0f, y0 = (int)y0f;
+    x0 = x0 < 0 ? x0 + m : (x0 >= m ? x0 - m : x0);
+    y0 = y0 < 0 ? y0 + m : (y0 >= m ? y0 - m : y0);
+    int x1 = x0 + 1 == m ? 0 : x0 + 1, y1 = y0 + 1 == m ? 0 : y0 + 1;
     __global const float4 *t = d + off + slot;
     float4 a = t[(y0 * m + x0) * stride] * (1.0f - fx) + t[(y0 * m + x1) * stride] * fx;
     float4 b = t[(y1 * m + x0) * stride] * (1.0f - fx) + t[(y1 * m + x1) * stride] * fx;
     return a * (1.0f - fy) + b * fy;
 }
 
-/* Trilinear fetch between levels l0 and l0 + 1 with weight f (f = 0: l0 only). `mean`: the
- * mean-normal slot (stride 1 at the level's mean offset) instead of lobe `slot`. */
+/* Trilinear fetch between levels l0 and l0 + 1 with weight f (f = 0: l0 only) of slot `slot`
+ * of `stride` per texel in the level's block `which`: 0 the lobes (α_j, α_j·r_j), 1 the mean
+ * normal, 2 the SH coefficients γ_lm (nm_levels: lobe, mean, SH offsets in x, z, w). */
 inline float4 nm_trilinear(__global const float4 *d, __global const int4 *lev, int l0, int l1,
-                           float f, int stride, int slot, int mean, float2 uv) {
+                           float f, int which, int stride, int slot, float2 uv) {
     int4 a = lev[l0];
-    float4 v = mean ? nm_bilinear(d, a.z, a.y, 1, 0, uv)
-                    : nm_bilinear(d, a.x, a.y, stride, slot, uv);
+    float4 v = nm_bilinear(d, which == 0 ? a.x : (which == 1 ? a.z : a.w), a.y, stride, slot, uv);
     if (f > 0.0f) {
         int4 b = lev[l1];
-        float4 w = mean ? nm_bilinear(d, b.z, b.y, 1, 0, uv)
-                        : nm_bilinear(d, b.x, b.y, stride, slot, uv);
+        float4 w = nm_bilinear(d, which == 0 ? b.x : (which == 1 ? b.z : b.w), b.y, stride,
+                               slot, uv);
         v = v * (1.0f - f) + w * f;
     }
     return v;
@@ -68,12 +95,185 @@ inline float3 nm_lift(float3 d, float3 n, float zmin) {
 }
 
 /* Normalised Blinn–Phong ρ_s (n·h)-lobe times the cosine, for exponent e about axis n:
- * (e+2)/(8π)·(n·h)^e·(n·i) (ks excluded). `norm`: the lobe's normalisation factor. */
+ * norm·(n·h)^e·(n·i) (ks excluded). `norm`: the lobe's normalisation factor. */
 inline float nm_blinn(float3 n, float3 o, float3 i, float e, float norm) {
     float ci = dot(n, i);
     if (ci <= 0.0f) return 0.0f;
     float3 h = normalize(nm_lift(o, n, 0.01f) + i);
     return norm * pow(fmax(dot(n, h), 0.0f), e) * ci;
+}
+
+/* Smith–Beckmann G1 of a direction at cosine c to the normal, roughness a (isotropic). */
+inline float nm_g1_beckmann(float c, float a) {
+    float c2 = fmax(c * c, 1e-12f);
+    float t = a * a * fmax(1.0f - c2, 0.0f) / c2;
+    if (t <= 0.0f) return 1.0f;
+    float x = rsqrt(t);
+    if (x >= 6.0f) return 1.0f;
+    float lam = 0.5f * (erf(x) - 1.0f) + exp(-x * x) / (2.0f * x * MF_SQRT_PI);
+    return 1.0f / (1.0f + lam);
+}
+
+/* Microfacet D (the fit stage's peak-normalised form times M_o's 1/π and g_scale, i.e. what
+ * multiplies F·G2/((n·i)(n·o))) at cosine ch for roughness a (Beckmann: e^{−tan²/a²}/(4πa²ch⁴);
+ * Cook–Torrance: amp·e^{−(θ_h/a)²}/π). */
+inline float nm_mf_d(int model, float ch, float a, float amp) {
+    if (ch <= 0.0f) return 0.0f;
+    if (model == NM_BECKMANN) {
+        float c2 = ch * ch;
+        return exp(-fmin((1.0f - c2) / (c2 * a * a), 80.0f)) / (4.0f * SG_PI * a * a * c2 * c2);
+    }
+    float th = acos(fmin(ch, 1.0f)) / a;
+    return amp * MF_INV_PI * exp(-th * th);
+}
+
+/* Masking-shadowing G2 of the microfacet models about axis n (Beckmann: Smith at roughness a;
+ * Cook–Torrance: the V-cavity term). */
+inline float nm_mf_g(int model, float ci, float co, float ch, float oh, float a) {
+    if (model == NM_BECKMANN) return nm_g1_beckmann(co, a) * nm_g1_beckmann(ci, a);
+    oh = fmax(oh, 1e-6f);
+    return fmin(1.0f, fmin(2.0f * ch * co / oh, 2.0f * ch * ci / oh));
+}
+
+/* Specular BRDF × cosine (per unit irradiance, ks and Fresnel included) of one lobe about the
+ * unit axis n: Blinn–Phong exponent e with normalisation `norm` (ρ·cos = norm (n·h)^e (n·i)),
+ * or a microfacet model at roughness a with D amplitude `amp`. */
+inline float3 nm_spec(__global const float *m, float3 ks, int model, float3 n, float3 o,
+                      float3 i, float e, float norm, float a, float amp) {
+    if (model == NM_LAMBERT) return (float3)(0.0f);
+    if (model == NM_BLINN) return ks * nm_blinn(n, o, i, e, norm);
+    float ci = dot(n, i);
+    if (ci <= 0.0f) return (float3)(0.0f);
+    float3 ol = nm_lift(o, n, 0.01f);
+    float co = dot(n, ol);
+    float3 h = normalize(ol + i);
+    float ch = dot(n, h), oh = dot(ol, h);
+    float D = nm_mf_d(model, ch, a, amp);
+    if (D <= 0.0f) return (float3)(0.0f);
+    float G = nm_mf_g(model, ci, co, ch, oh, a);
+    return ks * mf_fresnel(m, oh) * (G * D / co);
+}
+
+/* The same lobe under the environment (eq 24–26 with SG): D about n as an SG in h, warped to
+ * i-space about the reflected view, times the other factors and the cosine at the warped axis,
+ * through Γ_L (the `sg` method's accurate pyramid); SSDF visibility from vis at the axis. */
+inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 n, float3 o,
+                          float e, float norm, float a, float amp, float3 T, float3 B,
+                          float3 N, const Vis *vis,
+                          __global const float4 *pyr, __global const int *pyr_off,
+                          __global const int *pyr_res, __global const float *pyr_lam,
+                          int pyr_n, float pyr_log_ratio, float3 env_mean,
+                          __global const float4 *pyr_pts, int n_pts,
+                          __global const float4 *pyr_raw, int raw_n, float env_scale) {
+    if (model == NM_LAMBERT) return (float3)(0.0f);
+    float3 ol = nm_lift(o, n, 0.01f);
+    float lam_h, amp_h;
+    if (model == NM_BLINN) {          /* (n·h)^e ≈ e^{e(n·h − 1)} */
+        lam_h = e;
+        amp_h = norm;
+    } else {                          /* e^{−tan²θ/a²}, e^{−θ²/a²} ≈ e^{(2/a²)(n·h − 1)} */
+        lam_h = 2.0f / (a * a);
+        amp_h = model == NM_BECKMANN ? 1.0f / (4.0f * SG_PI * a * a) : amp * MF_INV_PI;
+    }
+    SG w = sg_warp(sg_make(n, lam_h, (float3)(amp_h)), ol);
+    float ci = dot(n, w.p);
+    if (ci <= 0.0f) return (float3)(0.0f);
+    float3 f;
+    if (model == NM_BLINN) {
+        f = ks * ci;
+    } else {
+        float co = dot(n, ol);
+        float3 h = normalize(ol + w.p);
+        float ch = dot(n, h), oh = dot(ol, h);
+        f = ks * mf_fresnel(m, oh) * (nm_mf_g(model, ci, co, ch, oh, a) / co);
+    }
+    w.mu *= f;
+    float3 pl = to_local(w.p, T, B, N);
+    w = sg_times_visibility(w, vis_theta(vis, pl));
+    return w.mu * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam, pyr_n,
+                                                pyr_log_ratio, env_mean, pyr_raw, raw_n, w.p,
+                                                w.lam)
+                               + gamma_points(pyr_pts, n_pts, w.p, w.lam));
+}
+
+/* A world direction in the environment map's frame (render.environment_rotation: the defines
+ * ENV_ROT, ENV_M00 … ENV_M22 of cubemap.h; identity without them): nm_sh's SH lighting. */
+inline float3 nm_to_map(float3 d) {
+#ifdef ENV_ROT
+    return (float3)(ENV_M00 * d.x + ENV_M01 * d.y + ENV_M02 * d.z,
+                    ENV_M10 * d.x + ENV_M11 * d.y + ENV_M12 * d.z,
+                    ENV_M20 * d.x + ENV_M21 * d.y + ENV_M22 * d.z);
+#else
+    return d;
+#endif
+}
+
+/* Real SH basis (sgpipe.core.sh: orthonormal, no Condon–Shortley phase, k = l(l + 1) + m) of a
+ * unit direction for l ≤ lmax into y[(lmax + 1)²]. */
+inline void nm_sh_eval(float3 d, int lmax, float *y) {
+    float cm = 1.0f, sm = 0.0f, pmm = 1.0f;
+    for (int mm = 0; mm <= lmax; ++mm) {
+        if (mm > 0) {
+            float c2 = cm * d.x - sm * d.y;
+            sm = cm * d.y + sm * d.x;
+            cm = c2;
+            pmm *= (float)(2 * mm - 1);
+        }
+        float p2 = 0.0f, p1 = pmm;
+        for (int l = mm; l <= lmax; ++l) {
+            float p;
+            if (l == mm) p = pmm;
+            else if (l == mm + 1) p = d.z * (float)(2 * mm + 1) * pmm;
+            else p = ((float)(2 * l - 1) * d.z * p1 - (float)(l + mm - 1) * p2) / (float)(l - mm);
+            if (l > mm) { p2 = p1; p1 = p; }
+            float r = 1.0f;                                    /* (l − m)!/(l + m)! */
+            for (int k = l - mm + 1; k <= l + mm; ++k) r /= (float)k;
+            float kk = sqrt((float)(2 * l + 1) * 0.0795774715459477f * r);
+            if (mm == 0) {
+                y[l * (l + 1)] = kk * p;
+            } else {
+                y[l * (l + 1) + mm] = 1.41421356f * kk * p * cm;
+                y[l * (l + 1) - mm] = 1.41421356f * kk * p * sm;
+            }
+        }
+    }
+}
+
+/* Eq 12: Σ_{l ≤ lmax} ρ̂_l Σ_m γ_lm Y_lm(ω) with the basis values y. */
+inline float nm_sh_dot(const float *g, const float *y, __global const float *rho, int lmax) {
+    float acc = 0.0f;
+    for (int l = 0; l <= lmax; ++l) {
+        float b = 0.0f;
+        for (int k = l * l; k < (l + 1) * (l + 1); ++k) b += g[k] * y[k];
+        acc += rho[l] * b;
+    }
+    return acc;
+}
+
+/* Bands 1 and 2 of tangent-frame SH coefficients g (k < 9) rotated to world coordinates
+ * (frame t, b, n): band 1 is a vector, band 2 a traceless quadratic form Q with
+ * f(ω) = ωᵀQω, rotated as M Q Mᵀ (M = [t b n]); band 0 is invariant. */
+inline void nm_sh_rotate9(const float *g, float3 t, float3 b, float3 n, float *w) {
+    const float c1 = 1.09254843059208f, c0 = 0.315391565252520f;   /* √(15/4π), √(5/16π) */
+    w[0] = g[0];
+    float3 v = g[3] * t + g[1] * b + g[2] * n;                        /* (Y_11, Y_1−1, Y_10) */
+    w[1] = v.y; w[2] = v.z; w[3] = v.x;
+    float qxy = 0.5f * c1 * g[4], qyz = 0.5f * c1 * g[5], qxz = 0.5f * c1 * g[7];
+    float qxx = 0.5f * c1 * g[8] - c0 * g[6], qyy = -0.5f * c1 * g[8] - c0 * g[6];
+    float qzz = 2.0f * c0 * g[6];
+    /* columns of Q·Mᵀ rows: R = M Q Mᵀ, M's columns t, b, n */
+    float3 r0 = qxx * t + qxy * b + qxz * n;     /* M (Q e_x) */
+    float3 r1 = qxy * t + qyy * b + qyz * n;
+    float3 r2 = qxz * t + qyz * b + qzz * n;
+    /* R_ij = Σ_k M_ik (Q Mᵀ)_kj = t_i r0_j + b_i r1_j + n_i r2_j */
+    float3 Rx = t.x * r0 + b.x * r1 + n.x * r2;
+    float3 Ry = t.y * r0 + b.y * r1 + n.y * r2;
+    float3 Rz = t.z * r0 + b.z * r1 + n.z * r2;
+    w[4] = 2.0f * Rx.y / c1;
+    w[5] = 2.0f * Ry.z / c1;
+    w[6] = Rz.z / (2.0f * c0);
+    w[7] = 2.0f * Rx.z / c1;
+    w[8] = (Rx.x - Ry.y) / c1;
 }
 
 #endif

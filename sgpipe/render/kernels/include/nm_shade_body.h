@@ -1,15 +1,18 @@
-/* Body of the vmf / normals_mip / toksvig kernels (included inside each __kernel function;
- * NM_FILTER selects the filter, nm_shade.h documents the shading). */
+/* Body of the normal-map kernels (included inside each __kernel function; NM_FILTER selects
+ * the filter, nm_shade.h documents the shading). */
     SHADE_PIXEL_PROLOGUE;
     int obj = gobj[gid];
     int4 info = nm_info[obj];
-    float s = nm_brdf[4 * obj];
+    __global const float *bp = nm_brdf + NM_BRDF_STRIDE * obj;
+    float s = bp[0];                       /* Blinn–Phong exponent or microfacet roughness */
+    int model = (int)bp[2];
+    int env_on = bp[13] > 0.0f && !(flags & FLAG_NO_ENV_SPECULAR);
     float3 o = normalize(to_world(lift(to_local(gview[gid].xyz, T, B, N), 0.01f), T, B, N));
 
     /* MIP level from the footprint (clamped to the pyramid), trilinear weights. Isotropic
      * (max taps 1): the level of the longer UV derivative. Anisotropic (max taps N > 1): the
      * level of the shorter one, raised until N taps along the longer one span it; the taps'
-     * α, α·r and mean normals are averaged (linear in the NDF, eq 24) before κ, μ. */
+     * α, α·r, mean normals and γ_lm are averaged (linear in the NDF, eq 24) before κ, μ. */
     int l0 = 0, l1 = 0, ntap = 1;
     float f = 0.0f;
     float2 uv0 = px.uv, du = (float2)(0.0f);
@@ -18,7 +21,7 @@
         float side = (float)nm_levels[info.x].y;
         float lx = length(duv.xy) * side, ly = length(duv.zw) * side;
         float major = fmax(lx, ly), minor = fmin(lx, ly);
-        int max_taps = max((int)nm_brdf[4 * obj + 1], 1);
+        int max_taps = max((int)bp[1], 1);
         float len = max_taps > 1 ? fmax(minor, major / (float)max_taps) : major;
         float lod = clamp(log2(fmax(len, 1e-18f)), 0.0f, (float)(info.y - 1));
         if (max_taps > 1) {
@@ -32,11 +35,11 @@
         f = lod - (float)l0;
         l0 += info.x; l1 += info.x;
     }
+    float3 mean_t = (float3)(0.0f, 0.0f, 1.0f);
+#if NM_FILTER == NM_VMF
     float4 lob[NM_MAX_LOBES];
     int nl = min(info.z, NM_MAX_LOBES);
     for (int j = 0; j < nl; ++j) lob[j] = (float4)(0.0f);
-    float3 mean_t = (float3)(0.0f, 0.0f, 1.0f);
-#if NM_FILTER == NM_VMF
     /* Where level 0 takes part (weight 1 − f), its texels are read as the renderer and the
      * reference read the map — the bilinearly interpolated normal, one sharp lobe per tap —
      * instead of eq 24's bilinear mix of the texels' delta lobes (which blurs every texel
@@ -47,11 +50,18 @@
     float4 n0s[NM_MAX_L0];
     for (int k = 0; k < n0c; ++k) n0s[k] = (float4)(0.0f);
 #endif
+#if NM_FILTER == NM_SH
+    int nsh = info.w ? min((int)bp[3], 4 * NM_MAX_SH4) : 0;
+    int k4 = (nsh + 3) / 4;
+    int lsh = (int)(sqrt((float)nsh) + 0.5f) - 1;
+    float g[4 * NM_MAX_SH4];
+    for (int k = 0; k < 4 * k4; ++k) g[k] = 0.0f;
+#endif
     if (info.w) {
         mean_t = (float3)(0.0f);
         for (int k = 0; k < ntap; ++k) {
             float2 uvk = uv0 + (float)k * du;
-            mean_t += nm_trilinear(nm_data, nm_levels, l0, l1, f, 0, 0, 1, uvk).xyz;
+            mean_t += nm_trilinear(nm_data, nm_levels, l0, l1, f, 1, 1, 0, uvk).xyz;
 #if NM_FILTER == NM_VMF
             if (at0) {
                 int4 lv = nm_levels[l0];
@@ -64,25 +74,121 @@
                 }
             } else {
                 for (int j = 0; j < nl; ++j)
-                    lob[j] += nm_trilinear(nm_data, nm_levels, l0, l1, f, info.z, j, 0, uvk);
+                    lob[j] += nm_trilinear(nm_data, nm_levels, l0, l1, f, 0, info.z, j, uvk);
+            }
+#endif
+#if NM_FILTER == NM_SH
+            for (int c = 0; c < k4; ++c) {
+                float4 v = nm_trilinear(nm_data, nm_levels, l0, l1, f, 2, k4, c, uvk);
+                g[4 * c] += v.x; g[4 * c + 1] += v.y; g[4 * c + 2] += v.z; g[4 * c + 3] += v.w;
             }
 #endif
         }
         mean_t /= (float)ntap;
+#if NM_FILTER == NM_VMF
         for (int j = 0; j < nl; ++j) lob[j] /= (float)ntap;
+#endif
+#if NM_FILTER == NM_SH
+        for (int k = 0; k < nsh; ++k) g[k] /= (float)ntap;
+#endif
     }
     float3 mean = to_world(mean_t, T, B, N);
     float rl = length(mean);
     float3 nbar = rl > 0.0f ? mean / rl : N;
 
+    /* The pixel's specular lobes: axis (world), weight, Blinn–Phong exponent e with its
+     * normalisation, microfacet roughness a with its D amplitude (nm_shade.h). */
+    float3 ax[NM_MAX_LOBES + NM_MAX_L0];
+    float4 lp[NM_MAX_LOBES + NM_MAX_L0];        /* (weight, e, norm, a); amp in la */
+    float la[NM_MAX_LOBES + NM_MAX_L0];
+    int nlob = 0;
+    float bnorm = 0.25f * (s + 2.0f) / (s + 1.0f) * NM_INV_2PI;   /* × (s′ + 1): eq 20 */
+#if NM_FILTER == NM_VMF
+    if (!info.w) {
+        ax[0] = N; lp[0] = (float4)(1.0f, s, bnorm * (s + 1.0f), s); la[0] = 1.0f; nlob = 1;
+    } else {
+        for (int k = 0; at0 && k < n0c; ++k) {               /* level 0: bilinear normals */
+            float3 nk = to_world(n0s[k].yzw, T, B, N);
+            float ln = length(nk);
+            if (n0s[k].x <= 0.0f || ln <= 0.0f) continue;
+            ax[nlob] = nk / ln;
+            lp[nlob] = (float4)((1.0f - f) * (n0s[k].x / (float)ntap), s, bnorm * (s + 1.0f), s);
+            la[nlob] = 1.0f;
+            ++nlob;
+        }
+        for (int j = 0; j < nl; ++j) {
+            float4 t = lob[j];
+            if (t.x <= 0.0f) continue;
+            float3 r = t.yzw / t.x;
+            float lr = length(r);
+            if (lr <= 0.0f) continue;
+            float kappa = lr >= 1.0f ? 1e30f : (3.0f * lr - lr * lr * lr) / (1.0f - lr * lr);
+            float sp = kappa > 1e20f ? s : kappa * s / (kappa + s);          /* eq 20 */
+            float a2 = s * s + 2.0f / kappa;                                   /* eq 21 */
+            ax[nlob] = normalize(to_world(r / lr, T, B, N));
+            lp[nlob] = (float4)(t.x, sp, bnorm * (sp + 1.0f), sqrt(a2));
+            la[nlob] = s * s / a2;
+            ++nlob;
+        }
+    }
+#else
+    {
+        float e = s, nrm = (s + 2.0f) * 0.125f * MF_INV_PI, a = s, amp = 1.0f;
+#if NM_FILTER == NM_TOKSVIG
+        if (info.w) {
+            e = s * rl / (rl + s * (1.0f - rl));
+            nrm = (e + 2.0f) * 0.125f * MF_INV_PI;
+            float a2 = s * s + 2.0f * (1.0f - rl) / fmax(rl, 1e-6f);
+            a = sqrt(a2); amp = s * s / a2;
+        }
+#elif NM_FILTER == NM_BAKE || NM_FILTER == NM_SH
+        if (info.w) {   /* one lobe, κ from the mean length (Banerjee), eq 20 / 21 */
+            float kappa = rl >= 1.0f ? 1e30f : (3.0f * rl - rl * rl * rl) / (1.0f - rl * rl);
+            e = kappa > 1e20f ? s : kappa * s / (kappa + s);
+            nrm = bnorm * (e + 1.0f);
+            float a2 = s * s + 2.0f / fmax(kappa, 1e-6f);
+            a = sqrt(a2); amp = s * s / a2;
+        }
+#endif
+        ax[0] = nbar; lp[0] = (float4)(1.0f, e, nrm, a); la[0] = amp; nlob = 1;
+    }
+#endif
+
     float3 acc = (float3)(0.0f);
     if (!(flags & FLAG_NO_ENV_DIFFUSE)) {
-        /* the environment's diffuse part about the filtered normal (sg's SG-light sum) */
-        q = quat_from_z(normalize(to_local(nbar, T, B, N)));
-        qi = quat_conj(q);
-        op = lift(normalize(quat_rotate(qi, lift(to_local(o, T, B, N), 0.01f))), 0.01f);
-        acc += diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, &vis);
+#if NM_FILTER == NM_SH
+        if (nsh >= 4 && n_env_sh > 0) {
+            /* Σ_{l ≤ 2} Â_l γ_lm L_lm (eq 25 with the NDF's own coefficients), γ rotated to the
+             * environment map's frame (unshadowed) */
+            float gw[9];
+            float gl[9];
+            for (int k = 0; k < 9; ++k) gl[k] = k < nsh ? g[k] : 0.0f;
+            nm_sh_rotate9(gl, nm_to_map(T), nm_to_map(B), nm_to_map(N), gw);
+            const float ah[3] = {3.14159265f, 2.09439510f, 0.785398163f};
+            float3 e = (float3)(0.0f);
+            for (int k = 0; k < min(9, n_env_sh); ++k)
+                e += ah[k == 0 ? 0 : (k < 4 ? 1 : 2)] * gw[k] * nm_env_sh[k].xyz;
+            acc += px.kd * MF_INV_PI * fmax(e * env_scale, 0.0f);
+        } else
+#endif
+        {
+            /* the environment's diffuse part about the filtered normal (sg's SG-light sum) */
+            q = quat_from_z(normalize(to_local(nbar, T, B, N)));
+            qi = quat_conj(q);
+            op = lift(normalize(quat_rotate(qi, lift(to_local(o, T, B, N), 0.01f))), 0.01f);
+            acc += diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, &vis);
+        }
     }
+    if (env_on) {
+        for (int j = 0; j < nlob; ++j)
+            acc += lp[j].x * nm_spec_env(m, px.ks, model, ax[j], o, lp[j].y, lp[j].z, lp[j].w,
+                                         la[j], T, B, N, &vis, pyr, pyr_off, pyr_res, pyr_lam,
+                                         pyr_n, pyr_log_ratio, env_mean.xyz, pyr_pts, n_pts,
+                                         pyr_raw, raw_n, env_scale);
+    }
+#if NM_FILTER == NM_SH
+    float yb[4 * NM_MAX_SH4];
+#endif
     for (int k = 0; k < n_lights; ++k) {
         float4 a = lights[2 * k], b = lights[2 * k + 1];
         float3 i, E;
@@ -96,40 +202,51 @@
             E = b.xyz;
         }
         if (dot(i, N) <= 0.0f) continue;
-        float spec = 0.0f, diff;
+        if (vis.has) E *= fh_hat(vis_theta(&vis, to_local(i, T, B, N)), NM_LIGHT_LAMBDA);
+        float3 spec = (float3)(0.0f);
+        float diff;
+#if NM_FILTER == NM_SH
+        if (nsh > 0) {
+            int ld = min(lsh, 2);
+            nm_sh_eval(to_local(i, T, B, N), ld, yb);
+            const float ah[3] = {3.14159265f, 2.09439510f, 0.785398163f};
+            diff = 0.0f;
+            for (int l = 0; l <= ld; ++l) {
+                float bsum = 0.0f;
+                for (int kk = l * l; kk < (l + 1) * (l + 1); ++kk) bsum += g[kk] * yb[kk];
+                diff += ah[l] * bsum;
+            }
+            diff = fmax(diff, 0.0f);
+            if (model != NM_LAMBERT) {
+                float3 ol = nm_lift(o, nbar, 0.01f);
+                float3 h = normalize(o + i);          /* o: lifted in the geometric frame */
+                nm_sh_eval(to_local(h, T, B, N), lsh, yb);
+                float reff = fmax(nm_sh_dot(g, yb, bp + 4, lsh), 0.0f);      /* eq 12 */
+                float ci = dot(nbar, i);
+                if (ci > 0.0f) {
+                    if (model == NM_BLINN) {
+                        spec = px.ks * (reff * ci);
+                    } else {
+                        float co = dot(nbar, ol);
+                        float3 hb = normalize(ol + i);
+                        float ch = dot(nbar, hb), oh = dot(ol, hb);
+                        spec = px.ks * mf_fresnel(m, oh)
+                               * (nm_mf_g(model, ci, co, ch, oh, s) * reff / co);
+                    }
+                }
+            }
+        } else
+#endif
+        {
 #if NM_FILTER == NM_VMF
-        diff = fmax(dot(mean, i), 0.0f);
-        if (!info.w) {
-            spec = nm_blinn(N, o, i, s, (s + 2.0f) * 0.125f * MF_INV_PI);
-        } else {
-            for (int k = 0; at0 && k < n0c; ++k) {            /* level 0: bilinear normals */
-                float3 nk = to_world(n0s[k].yzw, T, B, N);
-                float ln = length(nk);
-                if (n0s[k].x <= 0.0f || ln <= 0.0f) continue;
-                spec += (1.0f - f) * (n0s[k].x / (float)ntap)
-                        * nm_blinn(nk / ln, o, i, s, (s + 2.0f) * 0.125f * MF_INV_PI);
-            }
-            for (int j = 0; j < nl; ++j) {
-                float4 t = lob[j];
-                if (t.x <= 0.0f) continue;
-                float3 r = t.yzw / t.x;
-                float lr = length(r);
-                if (lr <= 0.0f) continue;
-                float kappa = lr >= 1.0f ? 1e30f : (3.0f * lr - lr * lr * lr) / (1.0f - lr * lr);
-                float sp = kappa * s / (kappa + s);                         /* eq 20 */
-                float3 mu = normalize(to_world(r / lr, T, B, N));
-                float norm = 0.25f * (s + 2.0f) / (s + 1.0f) * (sp + 1.0f) * NM_INV_2PI;
-                spec += t.x * nm_blinn(mu, o, i, sp, norm);
-            }
-        }
+            diff = fmax(dot(mean, i), 0.0f);
 #else
-        float e = s;
-#if NM_FILTER == NM_TOKSVIG
-        if (info.w) e = s * rl / (rl + s * (1.0f - rl));
+            diff = fmax(dot(nbar, i), 0.0f);
 #endif
-        diff = fmax(dot(nbar, i), 0.0f);
-        spec = nm_blinn(nbar, o, i, e, (e + 2.0f) * 0.125f * MF_INV_PI);
-#endif
-        acc += (px.kd * (diff * MF_INV_PI) + px.ks * spec) * E;
+            for (int j = 0; j < nlob; ++j)
+                spec += lp[j].x * nm_spec(m, px.ks, model, ax[j], o, i, lp[j].y, lp[j].z,
+                                          lp[j].w, la[j]);
+        }
+        acc += (px.kd * (diff * MF_INV_PI) + spec) * E;
     }
     out[gid] = (float4)(acc, 1.0f);
