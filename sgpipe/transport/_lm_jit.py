@@ -6,7 +6,8 @@ so σ is the angular standard deviation (radians); it is the SG of CONVENTIONS w
 
 Parameters per view v and Gaussian k (layout p = 6k + …): a tangent step (δ1, δ2) of the mean
 μ_vk on the sphere (μ' = exp_μ(δ1 t1 + δ2 t2), so every step stays a unit vector), s = ln σ, and
-the RGB weight w. The objective is a sum of squares F = ‖r‖² with
+the RGB weight w ≥ 0 (a bound: projected LM, below). The objective is a sum of squares
+F = ‖r‖² with
   data (eq 7):  r = √(α Ω_j / E_v) (Σ_k w_kc G(ω_j; μ_vk, σ_vk) − T_vjc)  (active views only;
                 E_v = Σ_j Ω_j ‖T_vj‖², so each view's term is its relative squared error and the
                 BRDF's bright grazing views do not swamp the others)
@@ -15,6 +16,11 @@ the RGB weight w. The objective is a sum of squares F = ‖r‖² with
   spatial (eq 10): r = √δ max(−d, 0)^{3/2}, d = ⟨μ_vk1 − μ_vk2, ν_k1 − ν_k2⟩ for every
                    processed neighbour vertex's means ν (so r² is eq 10's max(−d, 0)³).
 g = Jᵀr and H = JᵀJ (the gradient of F is 2g).
+
+Weights are bounded below by zero (negative weights let a pair of lobes cancel: they fit one
+view's samples and interpolate to nonsense between views). The bound is handled by projection
+with an active set: a weight at zero whose gradient points below zero is held fixed for that
+step (`bound_active`), the others take the LM step and `retract` clips them at zero.
 """
 
 from __future__ import annotations
@@ -134,6 +140,19 @@ def data_term(T, active, dirs, omega, av, mu, s, w, tb, H, g, jac):
 
 
 @njit(cache=True)
+def bound_active(w, g):
+    """(6K,) mask of the parameters held this step: weights at the bound w = 0 whose descent
+    direction −g points below it (w (K, 3) and g (6K,) of one view)."""
+    K = w.shape[0]
+    held = np.zeros(P * K, np.bool_)
+    for k in range(K):
+        for c in range(3):
+            if w[k, c] <= 0.0 and g[P * k + 3 + c] >= 0.0:
+                held[P * k + 3 + c] = True
+    return held
+
+
+@njit(cache=True)
 def fit_views_independently(T, active, dirs, omega, av, mu, s, w, s_lo, s_hi, max_iter, ftol):
     """Levenberg–Marquardt on each active view's data term alone, with its own damping, in
     place: the start of the joint eq 6 solve (where one global damping would let the slowest
@@ -158,11 +177,21 @@ def fit_views_independently(T, active, dirs, omega, av, mu, s, w, s_lo, s_hi, ma
             accepted = False
             F2 = F
             x = np.zeros((1, n))
+            held = bound_active(w[v], g)
             while lam < 1e10:
                 A = H.copy()
+                rhs = -g.copy()
                 for p in range(n):
                     A[p, p] += lam * D[p]
-                x[0] = np.linalg.solve(A, -g)
+                for p in range(n):
+                    if held[p]:
+                        # the bound holds this weight: decouple it and give it a zero step
+                        for q in range(n):
+                            A[p, q] = 0.0
+                            A[q, p] = 0.0
+                        A[p, p] = 1.0
+                        rhs[p] = 0.0
+                x[0] = np.linalg.solve(A, rhs)
                 mu2, s2, w2 = retract(mu[v:v + 1], s[v:v + 1], w[v:v + 1], tb, x, s_lo, s_hi)
                 F2 = view_data(T, v, dirs, omega, av[v], mu2[0], s2[0], w2[0], tb[0], H, g,
                                False)
@@ -348,7 +377,8 @@ def solve_step(Hd, g, nb, cnt, tb, sig, beta, gamma, lam, D, selfd, free, maxit,
 
 @njit(cache=True)
 def retract(mu, s, w, tb, x, s_lo, s_hi):
-    """The candidate parameters after step x: means moved along the sphere's geodesics."""
+    """The candidate parameters after step x: means moved along the sphere's geodesics, ln σ
+    clipped to [s_lo, s_hi], weights projected onto w ≥ 0."""
     V, K = mu.shape[0], mu.shape[1]
     mu2 = np.empty_like(mu)
     s2 = np.empty_like(s)
@@ -364,5 +394,5 @@ def retract(mu, s, w, tb, x, s_lo, s_hi):
             mu2[v, k] = m / np.sqrt(m @ m)
             s2[v, k] = min(max(s[v, k] + x[v, P * k + 2], s_lo), s_hi)
             for c in range(3):
-                w2[v, k, c] = w[v, k, c] + x[v, P * k + 3 + c]
+                w2[v, k, c] = max(w[v, k, c] + x[v, P * k + 3 + c], 0.0)
     return mu2, s2, w2

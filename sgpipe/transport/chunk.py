@@ -84,7 +84,7 @@ class TransportResult:
     sigma: np.ndarray       # (n, 92, K)
     w: np.ndarray           # (n, 92, K, 3)
     sh: np.ndarray          # (n, 25) shadowed transfer
-    rel_err: np.ndarray     # (n,) relative L2 error of the fit on the active views
+    rel_err: np.ndarray     # (n,) relative L2 error of the fit over all active views (pooled)
     iters: np.ndarray       # (n,)
     visible: np.ndarray     # (n,) fraction of the upper-hemisphere light texels unoccluded
     fitted: int = 0         # vertices with glossy transport (the others have zero weights)

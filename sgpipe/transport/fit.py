@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import nnls
 
 from sgpipe.transport import _lm_jit as K_
 from sgpipe.transport.views import view_set
@@ -38,8 +39,7 @@ class FitOptions:
 @dataclass
 class VertexFit:
     """One vertex's Gaussians: mu (V, K, 3), sigma (V, K), w (V, K, 3); F the objective, rel_err
-    the root mean square over the active views of each view's relative L2 error, iters the LM
-    steps."""
+    the relative L2 error over all active views (`relative_error`), iters the LM steps."""
 
     mu: np.ndarray
     sigma: np.ndarray
@@ -96,11 +96,12 @@ def gaussian(dirs, mu, sigma):
 
 
 def solve_weights(T, dirs, omega, mu, sigma):
-    """Least-squares RGB weights (K, 3) of fixed Gaussians (K, 3)/(K,) against T (M, 3)."""
-    G = np.stack([gaussian(dirs, m, sg) for m, sg in zip(mu, sigma)], axis=1)   # (M, K)
-    A = G.T @ (G * omega[:, None])
-    A += 1e-12 * np.trace(A) * np.eye(len(sigma)) + 1e-300 * np.eye(len(sigma))
-    return np.linalg.solve(A, G.T @ (T * omega[:, None]))
+    """Non-negative least-squares RGB weights (K, 3) of fixed Gaussians (K, 3)/(K,) against
+    T (M, 3) in the solid-angle metric (Lawson–Hanson NNLS per channel)."""
+    sq = np.sqrt(omega)[:, None]
+    G = np.stack([gaussian(dirs, m, sg) for m, sg in zip(mu, sigma)], axis=1) * sq  # (M, K)
+    b = T * sq
+    return np.stack([nnls(G, b[:, c])[0] for c in range(3)], axis=1)
 
 
 def init_params(prob: VertexProblem):
@@ -155,10 +156,20 @@ def _fill_inactive(prob, mu, sig):
         mu[v], sig[v] = mu[near], sig[near]
 
 
+def _held_weights(w, g):
+    """(V, 6K) weights the bound w ≥ 0 holds this step: at zero with −g pointing below it."""
+    V, k = w.shape[0], w.shape[1]
+    held = np.zeros((V, K_.P * k), bool)
+    for kk in range(k):
+        held[:, K_.P * kk + 3:K_.P * kk + 6] = (w[:, kk] <= 0.0) & (g[:, K_.P * kk + 3:
+                                                                        K_.P * kk + 6] >= 0.0)
+    return held
+
+
 def fit_vertex(prob: VertexProblem, start=None) -> VertexFit:
     """Levenberg–Marquardt on eq 6 from `start` (mu, s, w) or `init_params`: first every active
     view's data term alone (each with its own damping), then all views jointly with the
-    coherence and spatial terms."""
+    coherence and spatial terms; weights projected onto w ≥ 0 throughout."""
     o = prob.opts
     mu, s, w = start if start is not None else init_params(prob)
     mu, s = mu.copy(), s.copy()
@@ -166,7 +177,7 @@ def fit_vertex(prob: VertexProblem, start=None) -> VertexFit:
         # no glossy transport in any view (a diffuse material, a fully occluded vertex): all
         # weights are zero and nothing of this vertex is stored or rendered
         return VertexFit(mu, np.exp(s), np.zeros_like(w), 0.0, 0.0, 0)
-    w = np.where(prob.active[:, None, None], w, 0.0)
+    w = np.where(prob.active[:, None, None], np.maximum(w, 0.0), 0.0)
     if o.independent_start:
         K_.fit_views_independently(prob.T, prob.active, prob.dirs, prob.omega, prob.av, mu, s,
                                    w, prob.s_lo, prob.s_hi, o.max_iter, 0.1 * o.ftol)
@@ -178,9 +189,10 @@ def fit_vertex(prob: VertexProblem, start=None) -> VertexFit:
         D = np.einsum("vpp->vp", H) + selfd
         D = np.maximum(D, 1e-9 * max(float(D.max()), 1e-300))
         accepted = False
+        free = prob.free & ~_held_weights(w, g)
         while lam < 1e10:
             x = K_.solve_step(H, g, prob.nb, prob.cnt, tb, sig, o.beta, o.gamma, lam, D, selfd,
-                              prob.free, o.cg_iter, 1e-6)
+                              free, o.cg_iter, 1e-6)
             mu2, s2, w2 = K_.retract(mu, s, w, tb, x, prob.s_lo, prob.s_hi)
             F2, Fd2, _, _, _ = prob.evaluate(mu2, s2, w2, False)
             if F2 < F:
@@ -195,9 +207,20 @@ def fit_vertex(prob: VertexProblem, start=None) -> VertexFit:
         F, Fd, H, g, tb = prob.evaluate(mu, s, w, True)
         if done:
             break
-    return VertexFit(mu, np.exp(s), w, float(F), float(np.sqrt(Fd / max(o.alpha, 1e-300)
-                     / max(int(prob.active.sum()), 1))) if prob.energy > 0 else 0.0, it)
+    return VertexFit(mu, np.exp(s), w, float(F), relative_error(prob, mu, s, w), it)
+
+
+def relative_error(prob: VertexProblem, mu, s, w) -> float:
+    """The vertex's relative L2 error over all its active views and light texels,
+    √(Σ_vj Ω_j ‖T̃_vj − T_vj‖² / Σ_vj Ω_j ‖T_vj‖²): pooled, so that views in shadow (whose
+    transport is 10⁻⁶ of the vertex's) count by their energy, as they do in an image."""
+    V = len(prob.views)
+    tb = K_.tangent_bases(mu)
+    num = K_.data_term(prob.T, prob.active, prob.dirs, prob.omega, np.ones(V), mu, s, w, tb,
+                       np.zeros((V, 1, 1)), np.zeros((V, 1)), False)
+    den = float(np.einsum("vmc,m->", prob.T[prob.active] ** 2, prob.omega))
+    return float(np.sqrt(num / den)) if den > 0 else 0.0
 
 
 __all__ = ["FitOptions", "VertexFit", "VertexProblem", "gaussian", "solve_weights",
-           "init_params", "init_from_neighbour", "fit_vertex"]
+           "init_params", "init_from_neighbour", "fit_vertex", "relative_error"]

@@ -6,7 +6,7 @@ import pytest
 
 from sgpipe.transport import _lm_jit as K_
 from sgpipe.transport.fit import (FitOptions, VertexFit, VertexProblem, fit_vertex, gaussian,
-                                  init_from_neighbour)
+                                  init_from_neighbour, init_params, solve_weights)
 from sgpipe.transport.sampling import light_cube
 from sgpipe.transport.views import view_set
 
@@ -163,3 +163,63 @@ def test_coherence_terms_smooth_the_view_field():
     assert jumps(coh, set(range(92)))[0] < 0.3 * jumps(plain, set(range(92)))[0]
     # and the data fit barely pays for it
     assert coh.rel_err < plain.rel_err * 1.02
+
+
+def test_weights_stay_nonnegative_at_a_kkt_point():
+    """A lobe with a notch (T = G1 − 0.6 G2, clipped at zero): the unconstrained two-Gaussian
+    fit cancels lobes with a negative weight. Projected LM keeps every weight ≥ 0 and stops at
+    a KKT point of the bound: at w = 0 the gradient points into the bound (Jᵀr ≥ 0), elsewhere
+    the gradient vanishes."""
+    cube = light_cube(8)
+    m = reflected()
+    T = np.zeros((92, len(cube.dirs), 3))
+    for v in np.flatnonzero(ACTIVE):
+        notch = m[v] + 0.15 * np.cross(m[v], N)
+        notch /= np.linalg.norm(notch)
+        lobe = gaussian(cube.dirs, m[v], 0.35) - 0.6 * gaussian(cube.dirs, notch, 0.12)
+        T[v] = np.maximum(lobe, 0.0)[:, None] * [1.0, 0.7, 0.4]
+    opts = FitOptions(gaussians=2, beta=0.0, gamma=0.0, delta=0.0, max_iter=300, ftol=1e-12)
+    prob = VertexProblem(T, ACTIVE, cube.dirs, cube.omega, opts, N)
+    fit = fit_vertex(prob)
+    assert (fit.w >= 0.0).all()
+    _, _, _, g, _ = prob.evaluate(fit.mu, np.log(fit.sigma), fit.w, True)
+    gw = np.stack([g[:, 3:6], g[:, 9:12]], axis=1)                    # (92, K, 3) ∂F/∂w / 2
+    scale = np.abs(prob.evaluate(*init_params(prob), True)[3]).max()    # the start's gradient
+    at_bound = fit.w[ACTIVE] == 0.0
+    assert at_bound.any()                         # the bound is active somewhere in this test
+    assert (gw[ACTIVE][at_bound] >= -1e-6 * scale).all()
+    assert np.abs(gw[ACTIVE][~at_bound]).max() < 1e-4 * scale
+
+
+def test_initial_weights_are_the_nonnegative_least_squares_optimum():
+    """solve_weights against enumerating the active sets of two Gaussians (the NNLS optimum is
+    the best feasible unconstrained solution over all subsets)."""
+    cube = light_cube(8)
+    rng = np.random.default_rng(5)
+    mu = rng.normal(size=(2, 3))
+    mu[1] = mu[0] + 0.1 * mu[1]                 # a narrower lobe inside the broad one
+    mu /= np.linalg.norm(mu, axis=1, keepdims=True)
+    sig = np.array([0.5, 0.2])
+    G = np.stack([gaussian(cube.dirs, mu[k], sig[k]) for k in range(2)], axis=1)
+    # channels 0 and 1: a lobe minus a narrower one (the unconstrained optimum is negative)
+    T = np.maximum(G @ np.array([[1.0, 1.0, 0.3], [-0.6, -0.3, 0.2]])
+                   + 0.05 * rng.normal(size=(len(cube.dirs), 3)), 0.0)
+    A = G * np.sqrt(cube.omega)[:, None]
+    free = np.linalg.lstsq(A, T * np.sqrt(cube.omega)[:, None], rcond=None)[0]
+    assert (free < 0).any()                    # the bound matters in this test
+    w = solve_weights(T, cube.dirs, cube.omega, mu, sig)
+    assert (w >= 0).all()
+
+    def cost(wc, c):
+        return np.sum(cube.omega * (G @ wc - T[:, c]) ** 2)
+
+    for c in range(3):
+        best = cost(np.zeros(2), c)
+        for keep in ([0], [1], [0, 1]):
+            A = G[:, keep] * np.sqrt(cube.omega)[:, None]
+            x = np.linalg.lstsq(A, T[:, c] * np.sqrt(cube.omega), rcond=None)[0]
+            if (x >= 0).all():
+                full = np.zeros(2)
+                full[keep] = x
+                best = min(best, cost(full, c))
+        assert cost(w[:, c], c) == pytest.approx(best, rel=1e-9)
