@@ -1,5 +1,6 @@
 """SG mixtures of microfacet NDFs (Wang09 §4.1–4.2): analytic lobes (eq 12 and equivalents),
-Levenberg–Marquardt fits about +z for isotropic NDFs, L-BFGS-B fits with free axes."""
+Levenberg–Marquardt fits about +z for isotropic NDFs, L-BFGS-B fits with free axes, and the
+lobe-count rule (`auto_ndf_sg`) that gives heavy-tailed NDFs (GGX) the lobes their tails need."""
 
 from __future__ import annotations
 
@@ -13,6 +14,14 @@ from sgpipe.fit._sg_fit_jit import sg_l2_objective
 from sgpipe.fit.em import spherical_em
 
 _LAM_MIN, _LAM_MAX = 1e-2, 1e6
+#: `auto_ndf_sg` targets for isotropic NDFs: relative L2 error of D and relative error of the
+#: projected area ∫ D cos θ dω (the energy in the tails, which L2 weighs little)
+AUTO_REL_L2 = 0.01
+AUTO_AREA_ERR = 0.02
+AUTO_MAX_LOBES = 6
+#: stop adding lobes when one more lowers the L2 error by less than this fraction: positive SG
+#: mixtures are log-convex in 1 − cos θ, so they cannot follow a lighter-tailed D (Beckmann)
+_AUTO_MIN_GAIN = 0.05
 
 
 @dataclass
@@ -24,6 +33,7 @@ class NdfSG:
     amplitude: np.ndarray   # (L,)
     method: str
     rel_l2: float = float("nan")
+    area_err: float = float("nan")   # relative error of ∫ D cos θ dω (fit_ndf_sg sets it)
 
     def eval(self, h):
         h = np.asarray(h, float)
@@ -201,8 +211,11 @@ def _ndf_alphas(ndf):
 def fit_ndf_sg(ndf, *, method: str = "auto", n_lobes: int = 1, seed: int = 0,
                init: NdfSG | None = None) -> NdfSG:
     """Wang09 §4: analytic for isotropic parametric NDFs, LM about +z for isotropic NDFs
-    (tabulated; 1–2 lobes), L-BFGS-B with free axes for anisotropic NDFs. The relative L2
-    error vs the exact D over the hemisphere of h is stored in `rel_l2`."""
+    (tabulated; 1–2 lobes), L-BFGS-B with free axes for anisotropic NDFs; n_lobes = 0: the
+    count of `auto_ndf_sg`. The relative L2 error vs the exact D over the hemisphere of h is
+    stored in `rel_l2`, the relative error of its projected area in `area_err`."""
+    if n_lobes == 0:
+        return auto_ndf_sg(ndf, method=method, seed=seed)
     iso = ndf.isotropic
     if method == "auto":
         method = ("analytic" if ndf.sg_analytic() is not None and n_lobes == 1 else "lm") \
@@ -230,7 +243,45 @@ def fit_ndf_sg(ndf, *, method: str = "auto", n_lobes: int = 1, seed: int = 0,
     else:
         raise ValueError(f"unknown NDF fit method {method!r}")
     sg.rel_l2 = rel_l2(d, sg.eval(h), w)
+    sg.area_err = projected_area_error(d, sg.eval(h), w, h[:, 2])
     return sg
+
+
+def projected_area_error(values, approx, weights, cos_t) -> float:
+    """Relative error of ∫ D(h) (h·n) dω_h (= 1 for a normalised D): the energy of the lobe."""
+    den = float(np.sum(weights * values * cos_t))
+    return float(np.sum(weights * approx * cos_t)) / den - 1.0 if den > 0 else 0.0
+
+
+def _meets_targets(sg: NdfSG) -> bool:
+    return sg.rel_l2 <= AUTO_REL_L2 and abs(sg.area_err) <= AUTO_AREA_ERR
+
+
+def auto_ndf_sg(ndf, *, method: str = "auto", seed: int = 0) -> NdfSG:
+    """`fit.ndf_sg.lobes: 0`. Isotropic NDFs: Wang09's analytic lobe (eq 12) when it meets the
+    targets (AUTO_REL_L2 on D, AUTO_AREA_ERR on ∫ D cos θ), else the fewest LM lobes about +z
+    that do, adding lobes up to AUTO_MAX_LOBES while each still helps (GGX's tails: 3–4 lobes).
+    `method` analytic: the one analytic lobe; lbfgsb: 2 lobes (isotropic) or 8 with free axes
+    (anisotropic, also auto's choice there)."""
+    if method not in ("auto", "analytic", "lm", "lbfgsb"):
+        raise ValueError(f"unknown NDF fit method {method!r}")
+    if method == "analytic":
+        return fit_ndf_sg(ndf, method="analytic")
+    if method == "lbfgsb" or not ndf.isotropic:
+        return fit_ndf_sg(ndf, method=method, n_lobes=2 if ndf.isotropic else 8, seed=seed)
+    if method == "auto" and ndf.sg_analytic() is not None:
+        sg = fit_ndf_sg(ndf, method="analytic")
+        if _meets_targets(sg):
+            return sg
+    best = fit_ndf_sg(ndf, method="lm", n_lobes=1, seed=seed)
+    for n in range(2, AUTO_MAX_LOBES + 1):
+        if _meets_targets(best):
+            break
+        nxt = fit_ndf_sg(ndf, method="lm", n_lobes=n, seed=seed)
+        if nxt.rel_l2 > (1.0 - _AUTO_MIN_GAIN) * best.rel_l2:
+            break
+        best = nxt
+    return best
 
 
 def _add_lobe(sg: NdfSG, h, w, d) -> NdfSG:
