@@ -38,8 +38,11 @@ def flat_frame(views, uv, duv) -> Frame:
 
 def material(model: str, param: float, kd=0.0, ks=1.0, fresnel="none"):
     """(sgpipe.brdf BRDF, Material) of a normal-map material."""
-    key = {"blinn_phong": "exponent", "beckmann": "alpha", "cook_torrance": "m"}[model]
-    params = {key: param, "kd": kd, "ks": ks, "fresnel": fresnel}
+    if model == "lambert":
+        params = {"kd": kd}
+    else:
+        key = {"blinn_phong": "exponent", "beckmann": "alpha", "cook_torrance": "m"}[model]
+        params = {key: param, "kd": kd, "ks": ks, "fresnel": fresnel}
     brdf = make_brdf(model, params)
     return brdf, Material.from_brdf(model, brdf)
 

@@ -168,19 +168,21 @@ inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 
     if (model == NM_LAMBERT) return (float3)(0.0f);
     float3 ol = nm_lift(o, n, 0.01f);
     float lam_h, amp_h;
-    if (model == NM_BLINN) {          /* (n·h)^e ≈ e^{e(n·h − 1)} */
+    if (model == NM_BLINN) {          /* (n·h)^e ≈ e/(e+1)·e^{e(n·h − 1)}: the same integral */
         lam_h = e;
-        amp_h = norm;
+        amp_h = norm * e / (e + 1.0f);
     } else {                          /* e^{−tan²θ/a²}, e^{−θ²/a²} ≈ e^{(2/a²)(n·h − 1)} */
         lam_h = 2.0f / (a * a);
-        amp_h = model == NM_BECKMANN ? 1.0f / (4.0f * SG_PI * a * a) : amp * MF_INV_PI;
+        /* Cook–Torrance: the SG's mass πa² exceeds the θ-Gaussian's πa²(1 − a²/6) */
+        amp_h = model == NM_BECKMANN ? 1.0f / (4.0f * SG_PI * a * a)
+                                     : amp * MF_INV_PI * (1.0f - a * a / 6.0f);
     }
     SG w = sg_warp(sg_make(n, lam_h, (float3)(amp_h)), ol);
     float ci = dot(n, w.p);
     if (ci <= 0.0f) return (float3)(0.0f);
     float3 f;
-    if (model == NM_BLINN) {
-        f = ks * ci;
+    if (model == NM_BLINN) {          /* the cosine's mean over the lobe: (n·p)·A(λ) */
+        f = ks * (ci * mean_resultant(w.lam));
     } else {
         float co = dot(n, ol);
         float3 h = normalize(ol + w.p);
