@@ -144,3 +144,23 @@ def banerjee_kappa(r):
 
 def directional(i, e=(1.0, 1.0, 1.0)):
     return Light("directional", tuple(unit(i)), tuple(e))
+
+
+def blinn_lobe(n, o, i, e, norm):
+    """nm_shade.h nm_blinn: norm (n·h)^e (n·i), o lifted about n to elevation ≥ asin 0.01."""
+    n, o, i = unit(n), unit(o), unit(i)
+    ci = n @ i
+    if ci <= 0:
+        return 0.0
+    c = o @ n
+    if c < 0.01:
+        p = unit(o - c * n)
+        o = p * math.sqrt(1 - 1e-4) + 0.01 * n
+    h = unit(o + i)
+    return norm * max(n @ h, 0.0) ** e * ci
+
+
+def eq20_lobe(s, kappa):
+    """(s′, normalisation) of eq 20 for the material's ks (s+2)/(8π)(n·h)^s."""
+    sp = s if kappa > 1e20 else kappa * s / (kappa + s)
+    return sp, 0.25 * (s + 2) / (s + 1) * (sp + 1) / (2 * math.pi)
