@@ -45,14 +45,20 @@ def load_trace_objects(cfg, vis_dir: str | Path | None = None) -> list[TraceObje
                                           rotation=object_rotation(spec.rotate_deg)))
             continue
         g = _geometry(Path(vis_dir) if vis_dir else None, spec.name)
-        if g is not None:
-            out.append(TraceObject.mesh(spec.name, g.positions, g.faces, normals=g.normals,
-                                        tangents=g.tangents, uvs=g.uvs))
-        else:
-            m = load_object(spec, k, sphere_subdivisions=sub)
-            out.append(TraceObject.mesh(spec.name, m.positions, m.faces, normals=m.normals,
-                                        tangents=m.tangents, uvs=m.uvs))
+        if g is None:
+            g = load_object(spec, k, sphere_subdivisions=sub)
+        out.append(TraceObject.mesh(spec.name, g.positions, g.faces, normals=g.normals,
+                                    tangents=g.tangents, uvs=repeated_uvs(g.uvs, spec)))
     return out
+
+
+def repeated_uvs(uvs, spec):
+    """The mesh's UVs × the object's `uv_repeat` (texture tiling; tangents ∂p/∂u keep their
+    direction under a positive scale, so they stay valid)."""
+    rep = tuple(getattr(spec, "uv_repeat", (1.0, 1.0)))
+    if uvs is None or rep == (1.0, 1.0):
+        return uvs
+    return np.asarray(uvs, np.float64) * np.asarray(rep, np.float64)
 
 
 def load_vis_objects(cfg, vis_dir: str | Path | None):

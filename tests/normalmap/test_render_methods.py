@@ -1,0 +1,111 @@
+"""The normal-map render methods end to end: `sgpipe run` on a tiny config (a plane with a
+random normal map, a Beckmann material, a small environment and a point light) renders and
+compares every method of the registry's normal-map group; `scene.objects[].uv_repeat` tiles the
+map identically for the OpenCL methods and the reference (a map repeated 2 × 2 renders as the
+same map tiled into an image twice as large)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from sgpipe.io import read_exr
+from sgpipe.render.methods import METHODS, NORMALMAP_METHODS
+from tests.normalmap.helpers import tilted_normals, write_image
+
+PLANE = ("v -3 0 3\nv 3 0 3\nv 3 0 -3\nv -3 0 -3\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+         "vn 0 1 0\nf 1/1/1 2/2/1 3/3/1\nf 1/1/1 3/3/1 4/4/1\n")
+
+
+def _config(tmp, normal_map, methods, *, repeat=None, env=True, size=24, spp=16):
+    (tmp / "plane.obj").write_text(PLANE)
+    obj = {"name": "plane", "mesh": "plane.obj", "material": "rough",
+           "normal_map": str(normal_map)}
+    if repeat is not None:
+        obj["uv_repeat"] = list(repeat)
+    cfg = {
+        "name": "nmtiny", "seed": 0, "workers": 1,
+        "scene": {"objects": [obj]},
+        "fit": {"materials": [{"name": "rough", "model": "beckmann",
+                               "params": {"alpha": 0.25, "kd": 0.2, "ks": 0.8}}]},
+        "normalmap": {"lobes": 2, "sh_order": 2, "align": False},
+        "render": {"camera": {"eye": [0, 2.5, 5.0], "target": [0, 0, 0], "fov_deg": 40,
+                              "width": size, "height": size},
+                   "methods": methods, "spp": spp, "normalmap_max_taps": 4,
+                   "background": False, "compare_to": "reference", "timing_repeats": 1,
+                   "lights": [{"type": "point", "position": [1.0, 3.0, 2.0],
+                               "intensity": [8, 8, 8], "radius": 0.0}]},
+    }
+    if env:
+        rng = np.random.default_rng(0)
+        img = 0.2 + 0.6 * rng.uniform(0, 1, (16, 32, 3))
+        write_image(tmp / "env.exr", img, "float")
+        cfg["envmap"] = {"environment": "env.exr", "cube_resolution": 8,
+                         "irradiance_height": 8, "sg_lobes": 2, "sh_lmax": 2}
+    (tmp / "c.yaml").write_text(yaml.safe_dump(cfg))
+    return tmp / "c.yaml"
+
+
+def _map(tmp, side=16, tile=1, name="nm.png"):
+    n = tilted_normals(side, seed=3, spread=0.5)
+    write_image(tmp / name, np.tile((n + 1) / 2, (tile, tile, 1)), "uint16")
+    return tmp / name
+
+
+def test_sgpipe_run_renders_and_compares_every_normal_map_method(tmp_path):
+    assert set(NORMALMAP_METHODS) <= set(METHODS)
+    methods = [*NORMALMAP_METHODS, "reference"]
+    cfg = _config(tmp_path, _map(tmp_path), methods)
+    r = subprocess.run([sys.executable, "-m", "sgpipe", "run", str(cfg), "--out",
+                        str(tmp_path / "out")], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    rd = tmp_path / "out" / "render"
+    cmp = json.loads((rd / "manifest.json").read_text())["report"]["compare"]
+    for m in methods:
+        img = read_exr(rd / f"{m}.exr")
+        assert img.shape == (24, 24, 3) and np.isfinite(img).all() and img.max() > 0, m
+        assert (rd / f"{m}.png").is_file()
+        if m != "reference":
+            assert cmp[m]["surface"]["display_psnr_db"] > 15.0, (m, cmp[m])
+    assert f"[render] nm_sh vs reference" in r.stderr + r.stdout
+
+
+def _render(tmp, normal_map, repeat):
+    from sgpipe.config import load_config
+    from sgpipe.stages import fit, normalmap, render
+    conf = load_config(_config(tmp, normal_map, ["vmf", "normals_mip", "nm_sh", "reference"],
+                               repeat=repeat, env=False, size=20, spp=4))
+    out = tmp / "out"
+    fit.run(conf, out)
+    normalmap.run(conf, out)
+    render.run(conf, out)
+    return {m: read_exr(out / "render" / f"{m}.exr")
+            for m in ("vmf", "normals_mip", "nm_sh", "reference")}
+
+
+def test_uv_repeat_tiles_the_map_for_the_kernels_and_the_reference(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    rep = _render(a, _map(a), (2.0, 2.0))
+    tiled = _render(b, _map(b, tile=2), None)
+    for m in rep:
+        assert rep[m].max() > 0.01, m
+        np.testing.assert_allclose(rep[m], tiled[m], rtol=1e-4, atol=1e-5 * tiled[m].max(),
+                                   err_msg=m)
+
+
+def test_uv_repeat_on_an_analytic_sphere_is_refused(tmp_path):
+    from sgpipe.config import load_config
+    from sgpipe.errors import BadInput
+    cfg = {"name": "x", "scene": {"objects": [{"name": "s", "sphere_radius": 1.0,
+                                               "uv_repeat": [2, 2]}]}}
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
+    with pytest.raises(BadInput, match="lat-long UVs"):
+        load_config(tmp_path / "c.yaml")
