@@ -7,6 +7,11 @@ Packed cubemap chain (`CubeChain`): float32 (T, 4) texels (RGB + 0), levels in o
 in the bordered "cube6v_b1" layout (6·(n+2) rows × (n+2) columns); `offsets[l]` is level l's
 first texel, `res[l]` its face resolution n.
 
+Rotation (render.environment_rotation): `EnvData.rotation` R (world ← map) turns the whole
+environment: the kernels read the cubemaps at Rᵀd (cubemap.h `env_to_map`, compile-time defines
+from `rotation_defines`), and the direction arrays beside them (point set, SG light axes) are
+handed to the kernels already turned (`point_records`, `light_records`).
+
 Packed accurate Γ_L chain (`GammaChain`, what `sg` reads): per level the "cube6v_b2" cubic
 B-spline coefficients of V (`coef_LL`) and of m = ∂ln Γ_L/∂ln λ (`slope_LL`), interleaved per
 texel as two float4 (V, 0), (m, 0): texel k of the chain is float4 2k (V) and 2k + 1 (m).
@@ -14,7 +19,7 @@ texel as two float4 (V, 0), (m, 0): texel k of the chain is float4 2k (V) and 2k
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +28,21 @@ from sgpipe.artifacts import envmap as contract
 from sgpipe.artifacts.envmap import COEF_BORDER, SAMPLE_BORDER
 from sgpipe.core.sg import dln_sg_norm
 from sgpipe.errors import BadInput
+
+
+def rotation_matrix(axis, angle_deg: float) -> np.ndarray:
+    """World ← map rotation (3, 3) float64 by `angle_deg` (right-handed) about `axis` (any
+    length > 0): what the map shows in direction d appears in world direction R·d. Multiples
+    of 90° about a coordinate axis come out with exact 0 / ±1 entries."""
+    from sgpipe.core.rotation import axis_angle_matrix
+    axis = np.asarray(axis, np.float64)
+    if axis.shape != (3,) or not np.all(np.isfinite(axis)) or not np.linalg.norm(axis) > 0:
+        raise ValueError(f"rotation axis must be a non-zero 3-vector, got {axis.tolist()}")
+    R = axis_angle_matrix(axis, np.radians(float(angle_deg)))
+    snapped = np.round(R)
+    # cos 90° = 6e-17, not 0: snap entries within rounding of an integer so that quarter turns
+    # permute cube faces exactly (and leave the identity an identity)
+    return np.where(np.abs(R - snapped) < 1e-12, snapped, R) + 0.0
 
 
 def bordered_dirs(n: int, border: int) -> np.ndarray:
@@ -195,6 +215,9 @@ class EnvData:
     # the unfiltered map of the levels' content (pyramid/raw.exr, one "cube6v_b1" level): the
     # λ → ∞ end of the sharp-side extrapolation; None: clamp to level 0
     raw: CubeChain | None = None
+    # world ← map rotation (3, 3) of the whole environment (render.environment_rotation);
+    # None: the identity. The arrays above stay in the map's frame.
+    rotation: np.ndarray | None = None
 
     def __post_init__(self):
         if self.gamma is None:
@@ -206,20 +229,55 @@ class EnvData:
     def mip_N(self) -> int:
         return int(self.mip.res[0])
 
+    def rotated(self, rotation) -> "EnvData":
+        """This environment turned by `rotation` (3, 3 world ← map; None: unchanged) after its
+        own rotation; the arrays are shared, not copied."""
+        if rotation is None:
+            return self
+        R = np.asarray(rotation, np.float64)
+        if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-9) \
+                or np.linalg.det(R) < 0:
+            raise ValueError(f"not a rotation matrix: {R.tolist()}")
+        if self.rotation is not None:
+            R = R @ self.rotation
+        return replace(self, rotation=None if np.array_equal(R, np.eye(3)) else R)
+
+    def to_world(self, dirs: np.ndarray) -> np.ndarray:
+        """Map-frame directions (..., 3) → world (R·d)."""
+        d = np.asarray(dirs)
+        return d if self.rotation is None else d @ self.rotation.T
+
+    def to_map(self, dirs: np.ndarray) -> np.ndarray:
+        """World directions (..., 3) → the map's frame (Rᵀ·d): where the maps are read."""
+        d = np.asarray(dirs)
+        return d if self.rotation is None else d @ self.rotation
+
+    def rotation_defines(self) -> dict:
+        """Compile-time defines of cubemap.h's `env_to_map` (M = Rᵀ, ENV_M<row><col>); {} for
+        no rotation (the kernels then compile without it)."""
+        if self.rotation is None:
+            return {}
+        M = self.rotation.T
+        d = {"ENV_ROT": 1}
+        d.update({f"ENV_M{i}{j}": float(M[i, j]) for i in range(3) for j in range(3)})
+        return d
+
     def point_records(self) -> np.ndarray:
-        """(max(K, 1), 2, 4) float32: (c_k, 0), (E_k, 0) per point — the kernels' layout."""
+        """(max(K, 1), 2, 4) float32: (c_k, 0), (E_k, 0) per point, c_k in world directions —
+        the kernels' layout."""
         k = len(self.point_dirs)
         rec = np.zeros((max(k, 1), 2, 4), np.float32)
-        rec[:k, 0, :3] = self.point_dirs
+        rec[:k, 0, :3] = self.to_world(np.asarray(self.point_dirs, np.float64))
         rec[:k, 1, :3] = self.point_energy
         return rec
 
     def light_records(self, scale: float = 1.0) -> np.ndarray:
-        """(K, 2, 4) float32: (axis, λ), (μ·scale, 0) per lobe — the kernels' env_sg layout."""
+        """(K, 2, 4) float32: (world axis, λ), (μ·scale, 0) per lobe — the kernels' env_sg
+        layout."""
         k = len(self.light_lambda)
         rec = np.zeros((max(k, 1), 2, 4), np.float32)
         if k:
-            rec[:k, 0, :3] = self.light_axes
+            rec[:k, 0, :3] = self.to_world(np.asarray(self.light_axes, np.float64))
             rec[:k, 0, 3] = self.light_lambda
             rec[:k, 1, :3] = np.asarray(self.light_mu) * scale
         return rec

@@ -1,7 +1,8 @@
 """Device buffers of the `transport` method (Green06 §5): per object its fitted Gaussians
 (gaussians.npz through `sgpipe.artifacts.transport.read_gaussians`), SH transfer vectors and
 diffuse f_d from `<out>/transport/<object>/`, the environment's SH light coefficients
-(`<out>/envmap/light_sh.npz`) and the 92-view tables of `views.nearest_views`, keyed by the kernel's parameter names
+(`<out>/envmap/light_sh.npz`, turned by render.environment_rotation: `rotate_sh`) and the
+92-view tables of `views.nearest_views`, keyed by the kernel's parameter names
 (`methods.TRANSPORT_PARAMS`, layouts in kernels/include/transport.h)."""
 
 from __future__ import annotations
@@ -32,6 +33,37 @@ def view_tables() -> tuple[np.ndarray, np.ndarray]:
     return vinv.reshape(-1, 4), vtri
 
 
+def sh_rotation_matrix(R, lmax: int) -> np.ndarray:
+    """((lmax+1)², (lmax+1)²) matrix D with D·c the SH coefficients of f(Rᵀω) when c are those
+    of f(ω) (core.sh basis): D_kj = ∫ Y_k(ω) Y_j(Rᵀω) dω by a product rule exact for the degree
+    ≤ 2·lmax integrand (Gauss–Legendre in cos θ × uniform φ), so the rotation is exact to
+    rounding — the numerical route to the Wigner D-matrices (block-diagonal per band)."""
+    from sgpipe.core.sh import sh_eval
+    x, wx = np.polynomial.legendre.leggauss(lmax + 2)              # exact to degree 2lmax+3
+    nphi = 2 * lmax + 3                                             # trig degree ≤ 2lmax + 2
+    phi = 2.0 * np.pi * np.arange(nphi) / nphi
+    st = np.sqrt(1.0 - x * x)
+    d = np.stack([st[:, None] * np.cos(phi), st[:, None] * np.sin(phi),
+                  np.broadcast_to(x[:, None], (len(x), nphi))], -1).reshape(-1, 3)
+    w = np.repeat(wx * (2.0 * np.pi / nphi), nphi)
+    R = np.asarray(R, np.float64)
+    D = (sh_eval(d, lmax) * w[:, None]).T @ sh_eval(d @ R, lmax)   # rows of d @ R: Rᵀd
+    band = np.repeat(np.arange(lmax + 1), 2 * np.arange(lmax + 1) + 1)
+    return np.where(band[:, None] == band[None, :], D, 0.0)        # other bands: rounding only
+
+
+def rotate_sh(coeffs, R) -> np.ndarray:
+    """SH coefficients ((lmax+1)², C) of the environment turned by R (world ← map): f(Rᵀω);
+    R None: unchanged."""
+    c = np.asarray(coeffs, np.float64)
+    if R is None or len(c) == 0:
+        return c
+    lmax = int(round(np.sqrt(len(c)))) - 1
+    if (lmax + 1) ** 2 != len(c):
+        raise ValueError(f"{len(c)} SH coefficients is not a full set of bands")
+    return np.tensordot(sh_rotation_matrix(R, lmax), c, axes=(1, 0))
+
+
 def pack_gaussians(mu, sigma, w) -> np.ndarray:
     """mu (X, 92, K, 3), sigma (X, 92, K), w (X, 92, K, 3) → (X·92·K·2, 4) float32 records
     (μ.xyz, σ), (w.rgb, 0) at ((x·92 + view)·K + k)·2."""
@@ -43,9 +75,11 @@ def pack_gaussians(mu, sigma, w) -> np.ndarray:
     return rec.reshape(-1, 4)
 
 
-def transport_arrays(objects: list, light_sh: np.ndarray) -> dict:
+def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None) -> dict:
     """Kernel arrays for per-object data `objects` (None, or dict with mu, sigma, w, transfer
-    (X, 25), diffuse_rgb (3,), faces (F, 3)) and SH light coefficients (n, 3)."""
+    (X, 25), diffuse_rgb (3,), faces (F, 3)) and SH light coefficients (n, 3) of the map,
+    turned by `rotation` (3×3 world ← map, or None)."""
+    light_sh = rotate_sh(light_sh, rotation)
     rows, faces, gauss, sh, fd = [], [], [], [], []
     v0 = f0 = 0
     K = max([o["sigma"].shape[2] for o in objects if o is not None] or [1])
@@ -111,14 +145,17 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
 
 
 def attach_transport(renderer, cfg, out_dir: str | Path, vis_objects: list) -> None:
-    """Upload the transport method's arrays into `renderer.static` (by parameter name)."""
+    """Upload the transport method's arrays into `renderer.static` (by parameter name), the SH
+    light turned by the config's render.environment_rotation (as the render stage turns the
+    renderer's environment: Renderer.rotate_environment)."""
     from sgpipe.artifacts.envmap import read_light_sh
     env_dir = Path(out_dir) / "envmap"
     light = (np.zeros((SH_COEFFS, 3)) if cfg.envmap is None
              else np.asarray(read_light_sh(env_dir)["coeffs"], np.float64))
     objs = load_transport_objects(cfg, out_dir, [None if v is None else v.faces
                                                  for v in vis_objects])
-    upload_transport(renderer, transport_arrays(objs, light))
+    rot = cfg.render.environment_rotation.matrix() if cfg.render is not None else None
+    upload_transport(renderer, transport_arrays(objs, light, rot))
 
 
 def upload_transport(renderer, arrays: dict) -> None:
@@ -129,5 +166,5 @@ def upload_transport(renderer, arrays: dict) -> None:
     renderer.static.update(dev)
 
 
-__all__ = ["MAX_GAUSSIANS", "view_tables", "pack_gaussians", "transport_arrays",
-           "load_transport_objects", "attach_transport", "upload_transport"]
+__all__ = ["MAX_GAUSSIANS", "view_tables", "sh_rotation_matrix", "rotate_sh", "pack_gaussians",
+           "transport_arrays", "load_transport_objects", "attach_transport", "upload_transport"]

@@ -74,6 +74,28 @@ class PixelFilterSpec:
 
 
 @dataclass
+class EnvironmentRotationSpec:
+    """A rotation of the whole environment at render time, for every method and the reference
+    (no precompute reruns): what the map shows in direction d appears in world direction R·d."""
+
+    axis: tuple[float, float, float] = doc("Rotation axis in world coordinates (any non-zero "
+                                           "length; +Y is up).", (0.0, 1.0, 0.0))
+    angle_deg: float = doc("Angle about the axis in degrees, right-handed (counter-clockwise "
+                           "seen from the axis tip); 0: no rotation.", 0.0, ge=-360, le=360)
+
+    def validate(self):
+        if not sum(c * c for c in self.axis) > 1e-20:
+            raise ValueError(f"axis: must be a non-zero vector, got {list(self.axis)}")
+
+    def matrix(self):
+        """World ← map rotation (3, 3), or None for a zero angle."""
+        if self.angle_deg == 0.0:
+            return None
+        from sgpipe.render.envdata import rotation_matrix
+        return rotation_matrix(self.axis, self.angle_deg)
+
+
+@dataclass
 class RenderSection:
     """What to render and how to compare it."""
 
@@ -85,6 +107,10 @@ class RenderSection:
                                   default_factory=list)
     environment_exposure: float = doc("Environment radiance scale in stops (× 2^value) for "
                                       "every method.", 0.0, ge=-30, le=30)
+    environment_rotation: EnvironmentRotationSpec = doc(
+        "Rotate the environment by `angle_deg` about `axis` for every method (sg, gmm, fis, "
+        "transport, vmf / normals_mip / toksvig, reference) and the background, e.g. "
+        "{axis: [0, 1, 0], angle_deg: 90}.", default_factory=EnvironmentRotationSpec)
     preview_exposure: float = doc("Exposure (stops) of the PNG previews (clamp + sRGB).", 0.0,
                                   ge=-30, le=30)
     background: bool = doc("Show the environment where primary rays miss (else black).", True)

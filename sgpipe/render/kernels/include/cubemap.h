@@ -8,8 +8,28 @@
 #ifndef SGPIPE_CUBEMAP_H
 #define SGPIPE_CUBEMAP_H
 
-/* OpenGL major-axis selection (ties x > y > z) → face, s, t ∈ [0, 1]. */
+/* Environment rotation (render.environment_rotation): the world sees the map turned by R, so a
+ * world direction d reads the map at M·d, M = Rᵀ, given row by row as the compile-time defines
+ * ENV_M00 … ENV_M22 with ENV_ROT (sgpipe.render.envdata.EnvData.rotation_defines); without
+ * ENV_ROT the identity. Applied in the two helpers that turn a direction into a place on the
+ * cube, cube_coords and cube_texel_solid_angle, so every environment lookup below (bilinear,
+ * MIP, Γ_L, raw map) and the kernels' own face fetches (cube_coords + cube_bilinear_st) follow
+ * it; the direction arrays beside the maps (point set, SG light lobes) are rotated on the host.
+ * Only the environment's cubemaps go through these helpers. */
+inline float3 env_to_map(float3 d) {
+#ifdef ENV_ROT
+    return (float3)(ENV_M00 * d.x + ENV_M01 * d.y + ENV_M02 * d.z,
+                    ENV_M10 * d.x + ENV_M11 * d.y + ENV_M12 * d.z,
+                    ENV_M20 * d.x + ENV_M21 * d.y + ENV_M22 * d.z);
+#else
+    return d;
+#endif
+}
+
+/* OpenGL major-axis selection (ties x > y > z) of the map direction of world d → face,
+ * s, t ∈ [0, 1]. */
 inline int cube_coords(float3 d, float *s, float *t) {
+    d = env_to_map(d);
     float ax = fabs(d.x), ay = fabs(d.y), az = fabs(d.z);
     float sc, tc, ma;
     int face;
@@ -62,9 +82,10 @@ inline float3 cube_mip(__global const float4 *data, __global const int *off, __g
     return mix(a, cube_bilinear(data, off[l1], res[l1], d), f);
 }
 
-/* Töral19 eq 9 with the cube distortion D(d) = 4 max(|d_x|, |d_y|, |d_z|)³ (unit d):
- * solid angle of a finest-level texel (face resolution N) around d. */
+/* Töral19 eq 9 with the cube distortion D(d) = 4 max(|d_x|, |d_y|, |d_z|)³ (unit d, in the
+ * map's frame): solid angle of a finest-level texel (face resolution N) around world d. */
 inline float cube_texel_solid_angle(float3 d, int N) {
+    d = env_to_map(d);
     float ma = fmax(fabs(d.x), fmax(fabs(d.y), fabs(d.z)));
     return 4.0f * ma * ma * ma / ((float)N * (float)N);
 }
