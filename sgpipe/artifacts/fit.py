@@ -19,6 +19,7 @@ MATERIALS_INDEX = "materials.json"
 MICROFACET = "microfacet.npz"
 MICROFACET_JSON = "microfacet.json"     # the same values with the kinds' names
 NDF_SG = "ndf_sg.npz"
+NDF_ASG = "ndf_asg.npz"                 # only with fit.ndf_sg.anisotropic: asg, anisotropic NDFs
 VIEW_GMM = "view_gmm.npz"
 VIEW_GMM_TEXTURE = "view_gmm.exr"
 TABULATED = "tabulated.npz"
@@ -32,6 +33,8 @@ VIEW_GMM_CHANNELS = ["R", "G", "B", "kappa", "mu_phi", "mu_theta"]
 
 f32, i32 = np.float32, np.int32
 NDF_SG_ARRAYS = {"axis": f32, "sharpness": f32, "amplitude": f32, "rel_l2": f32, "method": None}
+NDF_ASG_ARRAYS = {"z": f32, "x": f32, "sharpness_x": f32, "sharpness_y": f32, "amplitude": f32,
+                  "rel_l2": f32, "method": None}
 VIEW_GMM_ARRAYS = {"view_theta": f32, "view_phi": f32, "view_dirs": f32, "alpha": f32,
                    "kappa": f32, "mu": f32, "mu_theta": f32, "mu_phi": f32, "albedo": f32,
                    "rel_l2": f32, "includes_diffuse": i32, "coherent": i32}
@@ -75,6 +78,12 @@ def write_microfacet(sink, material: str, params: dict) -> None:
 def write_ndf_sg(sink, material: str, arrays: dict) -> None:
     """`ndf_sg.npz`: axis (L, 3), sharpness (L,), amplitude (L,), rel_l2, method (L may be 0)."""
     sink.write_npz(material_file(material, NDF_SG), cast(arrays, NDF_SG_ARRAYS, NDF_SG))
+
+
+def write_ndf_asg(sink, material: str, arrays: dict) -> None:
+    """`ndf_asg.npz`: z (L, 3), x (L, 3), sharpness_x (L,), sharpness_y (L,), amplitude (L,),
+    rel_l2, method — D(h) ≈ Σ_l c_l max(h·z_l, 0) e^{−λ_l (h·x_l)² − μ_l (h·y_l)²} (Xu13 eq 4)."""
+    sink.write_npz(material_file(material, NDF_ASG), cast(arrays, NDF_ASG_ARRAYS, NDF_ASG))
 
 
 def write_tabulated(sink, material: str, arrays: dict) -> None:
@@ -164,6 +173,32 @@ def read_ndf_sg(folder: str | Path, material: str) -> NdfLobes:
     lam = shaped(z["sharpness"], (-1,), "sharpness", path, key)
     return NdfLobes(axis=shaped(z["axis"], (len(lam), 3), "axis", path, key), sharpness=lam,
                     amplitude=shaped(z["amplitude"], (len(lam),), "amplitude", path, key))
+
+
+@dataclass
+class NdfAsgLobes:
+    """D(h) ≈ Σ_l amplitude_l max(h·z_l, 0) e^{−λ_l (h·x_l)² − μ_l (h·(z_l × x_l))²}."""
+
+    z: np.ndarray                       # (L, 3)
+    x: np.ndarray                       # (L, 3)
+    sharpness_x: np.ndarray             # (L,) λ
+    sharpness_y: np.ndarray             # (L,) μ
+    amplitude: np.ndarray               # (L,)
+
+
+def read_ndf_asg(folder: str | Path, material: str) -> NdfAsgLobes | None:
+    """`ndf_asg.npz` of one material, or None where the fit wrote none."""
+    path = Path(folder) / NDF_ASG
+    if not path.is_file():
+        return None
+    key = _key(material)
+    z = read_npz(path, key=key, required=("z", "x", "sharpness_x", "sharpness_y", "amplitude"))
+    lam = shaped(z["sharpness_x"], (-1,), "sharpness_x", path, key)
+    n = len(lam)
+    return NdfAsgLobes(z=shaped(z["z"], (n, 3), "z", path, key),
+                       x=shaped(z["x"], (n, 3), "x", path, key), sharpness_x=lam,
+                       sharpness_y=shaped(z["sharpness_y"], (n,), "sharpness_y", path, key),
+                       amplitude=shaped(z["amplitude"], (n,), "amplitude", path, key))
 
 
 def read_view_gmm(folder: str | Path, material: str) -> dict:

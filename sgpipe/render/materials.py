@@ -15,6 +15,7 @@ import numpy as np
 
 from sgpipe.artifacts import fit as contract
 from sgpipe.artifacts import scalar
+from sgpipe.core.asg import x_angle
 from sgpipe.errors import BadInput
 from sgpipe.render.records import (AU, AV, DIFFUSE, ETA, F0, FRESNEL, GMM, GMM_FLAGS, GMM_K,
                                    GMM_NP, GMM_NT, GMM_TMAX, GSCALE, K, KD, KDTEX, KS, KSTEX,
@@ -48,6 +49,12 @@ class Material:
     lobe_axis: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     lobe_lambda: np.ndarray = field(default_factory=lambda: np.zeros(0))
     lobe_mu: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    # NDF ASG lobes (ndf_asg.npz; used by `sg` instead of the SG lobes when present)
+    asg_z: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    asg_x: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    asg_lambda: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    asg_mu: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    asg_amp: np.ndarray = field(default_factory=lambda: np.zeros(0))
     gmm: dict | None = None          # view_gmm.npz arrays
     ndf_table: np.ndarray | None = None  # (nt, np) exact D on the (t, φ) grid (fis)
     kd_texture: int = -1
@@ -67,11 +74,23 @@ class Material:
                            file=folder, key="fit.materials")
         mf = contract.read_microfacet(folder, name)
         ndf = contract.read_ndf_sg(folder, name)
-        return cls(name, kd=mf.kd, ks=mf.ks, g_scale=mf.g_scale, diffuse=mf.diffuse,
+        asg = contract.read_ndf_asg(folder, name)
+        m = cls(name, kd=mf.kd, ks=mf.ks, g_scale=mf.g_scale, diffuse=mf.diffuse,
                    fresnel=mf.fresnel, f0=mf.f0, eta=mf.eta, k=mf.k, shadowing=mf.shadowing,
                    alpha_u=mf.alpha_u, alpha_v=mf.alpha_v, shadow_table=mf.shadow_table,
                    lobe_axis=ndf.axis, lobe_lambda=ndf.sharpness, lobe_mu=ndf.amplitude,
                    gmm=contract.read_view_gmm(folder, name) if need_gmm else None)
+        if asg is not None:
+            m.set_asg(asg.z, asg.x, asg.sharpness_x, asg.sharpness_y, asg.amplitude)
+        return m
+
+    def set_asg(self, z, x, lam, mu, amp) -> None:
+        """NDF ASG lobes (Xu13 eq 4) in the local frame: axes z (L,3), sharp axes x (L,3)."""
+        self.asg_z = np.asarray(z, float).reshape(-1, 3)
+        self.asg_x = np.asarray(x, float).reshape(-1, 3)
+        self.asg_lambda = np.asarray(lam, float).reshape(-1)
+        self.asg_mu = np.asarray(mu, float).reshape(-1)
+        self.asg_amp = np.asarray(amp, float).reshape(-1)
 
     @classmethod
     def from_brdf(cls, name: str, brdf, lobes=None) -> "Material":
@@ -157,6 +176,15 @@ def pack_materials(materials: list[Material]) -> MaterialTable:
             lobes.append([[*(np.asarray(a) / np.linalg.norm(a)), lam], [mu, 0, 0, 0]])
         n_lobe += nl
         max_lobes = max(max_lobes, nl)
+        # header (0,0,0,0), (0,0,0,n_asg) after the SG lobes, then the ASG lobes (asg.h):
+        # (z, λ), (c, μ, φ, 0), the sharp axis x at angle φ about z (core.asg.x_angle)
+        na = len(m.asg_lambda) if np.any(np.asarray(m.ks) > 0) else 0
+        lobes.append([[0, 0, 0, 0], [0, 0, 0, na]])
+        for z, x, lam, mu, c in zip(m.asg_z[:na], m.asg_x[:na], m.asg_lambda[:na],
+                                    m.asg_mu[:na], m.asg_amp[:na]):
+            z = np.asarray(z, float) / np.linalg.norm(z)
+            lobes.append([[*z, lam], [c, mu, x_angle(z, x), 0]])
+        n_lobe += 1 + na
         r[STAB] = n_tab
         st = np.ones(90, np.float32)
         st[:len(m.shadow_table)] = np.asarray(m.shadow_table, np.float32)[:90]

@@ -12,6 +12,7 @@ from sgpipe.artifacts import fit as artifacts
 from sgpipe.brdf import LUMINANCE, REGISTRY, BRDFParamError, brdf_from_spec
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
+from sgpipe.fit.ndf_asg import ndf_asg
 from sgpipe.fit.ndf_sg import NdfSG, analytic_ndf_sg, fit_ndf_sg, ndf_error_curve
 from sgpipe.fit.plot import error_curves_figure, save_png, slice_panels_figure
 from sgpipe.fit.view_gmm import (fit_view_gmm, interpolation_errors, lobe_curve,
@@ -122,6 +123,9 @@ def write_ndf_sg(run, name: str, brdf, spec, seed: int) -> dict:
         an = fit_ndf_sg(ndf, method="analytic")
         rep["analytic"] = {"sharpness": float(an.sharpness[0]),
                            "amplitude": float(an.amplitude[0]), "rel_l2": an.rel_l2}
+    if spec.anisotropic == "asg" and not ndf.isotropic:
+        asg, rep["asg"] = ndf_asg(ndf, spec.asg_lobes)
+        artifacts.write_ndf_asg(run, name, asg.arrays())
     if spec.report_lobes:
         fits = ndf_error_curve(ndf, spec.report_lobes, seed=seed)
         rep["curve"] = {"lobes": list(range(1, len(fits) + 1)),

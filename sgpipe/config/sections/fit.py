@@ -45,6 +45,14 @@ class NdfSGSpec:
                      "GGX tails —, 2 tabulated, 8 anisotropic).", 0, ge=0, le=16)
     report_lobes: int = doc("Largest lobe count of the error-vs-lobes report (0 = none).", 4,
                             ge=0, le=16)
+    anisotropic: Literal["asg", "sg"] = doc(
+        "What `sg` renders anisotropic NDFs with: asg = anisotropic spherical Gaussians (Xu "
+        "et al. 2013) fitted in h-space and warped per view into isotropic sub-lobes "
+        "(ndf_asg.npz); sg = Wang09's SG lobes with free axes (ndf_sg.npz, always written: "
+        "fis samples from them). Isotropic NDFs always use SG lobes.", "asg")
+    asg_lobes: int = doc("ASG lobes sharing the tangent frame (0 = auto: the fewest of 1–3 "
+                         "with relative L2 error ≤ 5 %, e.g. 2 for GGX's tails).", 0, ge=0,
+                         le=8)
 
 
 @dataclass

@@ -9,8 +9,11 @@
  * each), the cosine multiplies each sub-lobe by its Gaussian-expected clamped value instead of
  * C* ⊗, and Γ_L uses the accurate pyramid path (B-spline in p, Hermite of ln Γ_L in ln λ).
  * Defines: NV (PCA terms, stride of the coefficient rows), FH_A, FH_C3..FH_C0 (f_h sigmoid),
- * MAX_NDF_LOBES, SPEC_SUBLOBES (3, or 1 = Wang09's isotropic warp). */
+ * MAX_NDF_LOBES, SPEC_SUBLOBES (3, or 1 = Wang09's isotropic warp), ASG_MAX_HALF (asg.h).
+ * A material with ASG lobes (fit.ndf_sg.anisotropic: asg) is shaded from them instead of its SG
+ * lobes: each ASG's i-space sub-lobes (asg.h) go through the same M_o, cosine, SSDF and Γ_L. */
 #include "sg.h"
+#include "asg.h"
 #include "ssdf.h"
 #include "cubemap.h"
 #include "microfacet.h"
@@ -104,18 +107,30 @@ __kernel void sg_shade(SG_SHADE_ARGS)
      * SPEC_SUBLOBES isotropic sub-lobes (anisotropic warp), each times M_o and the cosine
      * (spec_cosine), in the geometric frame; built on the fly (no per-lobe arrays: private
      * memory stays small for any MAX_NDF_LOBES). */
-    int nl = min((int)m[MAT_NLOBES], MAX_NDF_LOBES);
-    for (int j = 0; j < nl; ++j) {
-        float4 L0 = lobes[2 * ((int)m[MAT_LOBE0] + j)];
-        float4 L1 = lobes[2 * ((int)m[MAT_LOBE0] + j) + 1];
+    int nsg = (int)m[MAT_NLOBES], lobe0 = (int)m[MAT_LOBE0];
+    int na = asg_count(lobes, lobe0, nsg);
+    int nl = na > 0 ? 0 : min(nsg, MAX_NDF_LOBES);
+    for (int j = 0; j < nl + na; ++j) {
         SG sub[SPEC_SUBLOBES];
-        spec_warp(sg_make(normalize(L0.xyz), L0.w, (float3)(L1.x)), op, sub);
+        ASGPlan plan;
+        int nsub = SPEC_SUBLOBES;
+        if (j < nl) {
+            float4 L0 = lobes[2 * (lobe0 + j)];
+            float4 L1 = lobes[2 * (lobe0 + j) + 1];
+            spec_warp(sg_make(normalize(L0.xyz), L0.w, (float3)(L1.x)), op, sub);
+        } else {
+            int a = lobe0 + nsg + 1 + (j - nl);
+            plan = asg_plan(lobes[2 * a], lobes[2 * a + 1], op);
+            nsub = asg_sublobe_count(&plan);
+        }
         /* the SSDF is decoded once per NDF lobe (its centre sub-lobe); the side sub-lobes,
          * offset in the plane of incidence, take θ_d shifted by their change of elevation
          * (exact for the horizon) */
         float th0 = 0.0f, el0 = 0.0f;
-        for (int k = 0; k < SPEC_SUBLOBES; ++k) {
-            SG w = sub[k];
+        for (int k = 0; k < nsub; ++k) {
+            SG w;
+            if (j < nl) w = sub[k];
+            else if (!asg_sublobe(&plan, k, &w)) continue;
             w.mu *= mf_M(m, tables, ks, op, lift(w.p, 0.05f));
             SG s = spec_cosine(w);
             w.p = quat_rotate(q, w.p);
