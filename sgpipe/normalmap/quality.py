@@ -67,3 +67,56 @@ def baseline_levels(mean: np.ndarray, s: float, h: np.ndarray) -> tuple:
 def rel_rms(x: np.ndarray, ref: np.ndarray) -> float:
     """√(mean (x − ref)²) / √(mean ref²)."""
     return float(np.sqrt(np.mean((x - ref) ** 2) / max(np.mean(ref ** 2), 1e-300)))
+
+
+# -- one texel's NDF against its vMF mixture (Han07 Fig 7) --------------------------------------
+
+def ndf_sh(normals: np.ndarray, lmax: int) -> np.ndarray:
+    """γ_lm of a texel's NDF γ = (1/N) Σ δ(n − n_i) (eq 9): the mean of Y_lm(n_i), ((lmax+1)²,)."""
+    return sh_eval(np.asarray(normals, np.float64).reshape(-1, 3), lmax).mean(axis=0)
+
+
+def mixture_sh(alpha, mu, kappa, lmax: int) -> np.ndarray:
+    """γ_lm of Σ_j α_j vMF(μ_j, κ_j): by Funk–Hecke α_j g_l(κ_j) Y_lm(μ_j), with the exact vMF
+    zonal coefficients g_l = i_l(κ)/i_0(κ) (eq 15; lobes.vmf_zonal_exact)."""
+    from sgpipe.normalmap.lobes import vmf_zonal_exact
+    out = np.zeros((lmax + 1) ** 2)
+    for a, m, k in zip(alpha, mu, kappa):
+        if a > 0 and k > 0:
+            g = sh_expand_bands(vmf_zonal_exact(float(k), lmax))
+            out += a * g * sh_eval(np.asarray(m, np.float64)[None], lmax)[0]
+    return out
+
+
+def ndf_sh_error(normals: np.ndarray, alpha, mu, kappa, lmax: int = 8) -> float:
+    """Relative L2 error on the sphere of the mixture's NDF against the texel's, both band-limited
+    to l ≤ lmax (Parseval: the norm of the SH coefficient difference)."""
+    g = ndf_sh(normals, lmax)
+    return float(np.linalg.norm(mixture_sh(alpha, mu, kappa, lmax) - g) / np.linalg.norm(g))
+
+
+def lit_sphere_half_vectors(size: int, light_deg: tuple[float, float]):
+    """A sphere seen by an orthographic viewer along +z (towards the viewer), lit by a
+    directional light at (polar angle from +z, azimuth) degrees: per pixel on the disc the half vector in the local
+    tangent frame (t = x̂ projected, b = n × t) and cos(n, light); (mask, h_local (P, 3), cos)."""
+    c = (np.arange(size) + 0.5) / size * 2.0 - 1.0
+    x, y = np.meshgrid(c, -c)
+    mask = x * x + y * y < 1.0
+    n = np.stack([x[mask], y[mask], np.sqrt(1.0 - x[mask] ** 2 - y[mask] ** 2)], -1)
+    th, az = np.radians(light_deg[0]), np.radians(light_deg[1])
+    li = np.array([math.sin(th) * math.cos(az), math.sin(th) * math.sin(az), math.cos(th)])
+    h = li + np.array([0.0, 0.0, 1.0])
+    h /= np.linalg.norm(h)
+    t = np.array([1.0, 0.0, 0.0]) - n[:, :1] * n
+    t /= np.linalg.norm(t, axis=-1, keepdims=True)
+    b = np.cross(n, t)
+    h_loc = np.stack([t @ h, b @ h, n @ h], -1)
+    return mask, h_loc, np.maximum(n @ li, 0.0)
+
+
+def texel_blinn_phong(normals: np.ndarray, s: float, h_local: np.ndarray) -> np.ndarray:
+    """The exact effective Blinn–Phong lobe of a texel (eq 4): the mean of f_s(ω_h · n_i) over its
+    normals (duplicates merged, so that large texels stay cheap)."""
+    u, cnt = np.unique(np.asarray(normals, np.float64).reshape(-1, 3), axis=0,
+                       return_counts=True)
+    return _lobe(np.asarray(h_local) @ u.T, s) @ (cnt / cnt.sum())
