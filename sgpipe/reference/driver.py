@@ -47,13 +47,16 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
                             progressive_every: int = 0, strategy: str = "mis",
                             mis: str = "power", background: str | bool = "env",
                             pixel_filter=None, maps=None,
-                            area_lights: bool = False) -> ReferenceResult:
+                            area_lights: bool = False, bounces: int = 0,
+                            env_rotation=None) -> ReferenceResult:
     """Render and return image, standard error, timing and progressive checkpoints.
 
     `pixel_filter`: a `PixelFilter`, its type name or a dict (type, radius, stddev); None is
     the box filter over the pixel. `maps`: per object (aligned with `objects`) an `ObjectMaps`
     (or dict) of normal map and kd / ks multipliers, or None. `area_lights`: lights with a
     `radius` > 0 are spheres / discs of that size (sgpipe.reference.lights), else delta lights.
+    `bounces`: indirect bounces per path (0: direct lighting only; shading._shade_paths).
+    `env_rotation`: 3×3 world ← map rotation of the environment (EnvSampler.rotated), or None.
     """
     from sgpipe.parallel import map_chunks, on_cluster
     from sgpipe.reference.pixel_filter import PixelFilter
@@ -68,6 +71,9 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
         background = "env" if background else "black"
     if background not in ("env", "black"):
         raise ValueError(f"background must be env or black, got {background!r}")
+    bounces = int(bounces)
+    if bounces < 0:
+        raise ValueError("bounces must be >= 0")
     spp = int(spp)
     if spp < 1:
         raise ValueError("spp must be >= 1")
@@ -80,7 +86,7 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
         raise ValueError(f"{len(maps)} object maps for {len(objects)} objects")
     filt = PixelFilter.of(pixel_filter)
     t0 = time.perf_counter()
-    env_s = env if isinstance(env, EnvSampler) else EnvSampler(env)
+    env_s = (env if isinstance(env, EnvSampler) else EnvSampler(env)).rotated(env_rotation)
     h, w = camera.height, camera.width
     # the pixel-centre hit mask (the other methods' G-buffer), reported as `hit`
     origins, dirs = camera.rays()
@@ -89,8 +95,8 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
     every = int(progressive_every or 0)
     cks = list(range(every, spp, every)) + [spp] if every > 0 else [spp]
     opts = {"spp": spp, "checkpoints": cks, "strategy": strategy, "mis": mis,
-            "seed": int(seed), "background": background}
-    shared = {"objects": objects, "env": env_s.rgb, "materials": mats,
+            "seed": int(seed), "background": background, "bounces": bounces}
+    shared = {"objects": objects, "env": env_s, "materials": mats,
               "lights": normalize_lights(lights, area_lights), "opts": opts, "camera": camera,
               "maps": maps, "filter": filt}
     tasks = []

@@ -219,7 +219,20 @@ class Renderer:
                      "MAX_GMM_LOBES": max(1, self.materials.max_gmm_lobes),
                      "GMM_TAPS": max(1, self.gmm_taps)}
         d.update({k: per_scene[k] for k in METHODS[method].defines})
+        d.update(self.env.rotation_defines())     # render.environment_rotation (cubemap.h)
         return d
+
+    def rotate_environment(self, rotation) -> None:
+        """Turn the environment by `rotation` (3×3 world ← map, None: no change) for every
+        method: EnvData.rotated (lookups through cubemap.h's defines, the point set and SG
+        light axes re-uploaded turned); programs rebuild with the new defines."""
+        if rotation is None:
+            return
+        self.env = self.env.rotated(rotation)
+        dev = lambda a: opencl.to_device(self.ctx, a)  # noqa: E731
+        self.static.update(pyr_pts=dev(self.env.point_records().reshape(-1, 4)),
+                           env_sg=dev(self.env.light_records().reshape(-1, 4)))
+        self._kernels.clear()
 
     def kernel(self, method: str):
         """The method's kernel (program built once per context and defines; kernel reused)."""

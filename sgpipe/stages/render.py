@@ -77,6 +77,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
         shaders = [METHODS[m] for m in rs.methods if m in METHODS]
         t0 = time.perf_counter()
         bundle = build_scene(cfg, out_dir, shaders)
+        bundle.renderer.rotate_environment(rs.environment_rotation.matrix())
         run.timings["setup_s"] = time.perf_counter() - t0
         cam = Camera.from_spec(rs.camera)
         t0 = time.perf_counter()
@@ -148,7 +149,7 @@ def supersampled_frames(cam, tracer, bundle, n: int, background: bool, centre=No
         vtri, vbary = ssdf_triangles(g, bundle.objects, bundle.proxies)
         bg = None
         if background and bundle.env_latlong is not None:
-            bg = latlong_lookup(bundle.env_latlong, d)
+            bg = latlong_lookup(bundle.env_latlong, bundle.renderer.env.to_map(d))
         fr = Frame.from_gbuffer(g, vtri, vbary)
         if footprints:   # texture footprint of each sub-sample (1/n pixel): the MIP level
             fr.duv = uv_derivatives(cam, g, off, 1.0 / n).reshape(-1, 4)[fr.index]
@@ -181,7 +182,8 @@ def reference_from_config(cfg, *, objects=None, env=None):
         spp=rs.spp, seed=cfg.seed, workers=cfg.workers or None,
         background="env" if rs.background else "black",
         pixel_filter=to_plain(rs.pixel_filter), maps=object_maps(cfg),
-        area_lights=rs.reference_area_lights)
+        area_lights=rs.reference_area_lights, bounces=rs.reference_bounces,
+        env_rotation=rs.environment_rotation.matrix())
 
 
 def object_maps(cfg) -> list:

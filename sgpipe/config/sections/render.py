@@ -108,9 +108,11 @@ class RenderSection:
     environment_exposure: float = doc("Environment radiance scale in stops (× 2^value) for "
                                       "every method.", 0.0, ge=-30, le=30)
     environment_rotation: EnvironmentRotationSpec = doc(
-        "Rotate the environment by `angle_deg` about `axis` for every method (sg, gmm, fis, "
-        "transport, vmf / normals_mip / toksvig, reference) and the background, e.g. "
-        "{axis: [0, 1, 0], angle_deg: 90}.", default_factory=EnvironmentRotationSpec)
+        "Rotate the environment by `angle_deg` about `axis` at render time, for every method "
+        "(each OpenCL method and the reference) and the background, without rerunning the "
+        "envmap stage: what the map shows in direction d appears in direction R·d. E.g. "
+        "{axis: [0, 1, 0], angle_deg: 90} turns the map's −Z (u = 0) to −X.",
+        default_factory=EnvironmentRotationSpec)
     preview_exposure: float = doc("Exposure (stops) of the PNG previews (clamp + sRGB).", 0.0,
                                   ge=-30, le=30)
     background: bool = doc("Show the environment where primary rays miss (else black).", True)
@@ -124,6 +126,11 @@ class RenderSection:
         "radiance I/(πr²) (point) or a disc of angular radius atan(radius) and radiance "
         "E/(π sin²α) (directional), sampled in their cone (soft shadows, broadened "
         "highlights); false: delta lights of the same intensity / irradiance.", False)
+    reference_bounces: int = doc(
+        "reference: indirect bounces per path (interreflection). 0: direct lighting only; N: "
+        "paths continue by BRDF importance sampling through up to N further surfaces, each "
+        "adding its direct light (env / BRDF samples with MIS, lights); no Russian roulette. "
+        "Mitsuba's `path` integrator with max_depth = N + 2.", 0, ge=0, le=16)
     supersample: int = doc("Real-time methods (sg, gmm, fis): N → N×N G-buffers at the "
                            "centres of an N×N grid of sub-pixel cells, shaded and averaged "
                            "(a box filter, comparable with the reference's default); 1 = one "
