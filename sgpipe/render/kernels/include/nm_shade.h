@@ -278,4 +278,23 @@ inline void nm_sh_rotate9(const float *g, float3 t, float3 b, float3 n, float *w
     w[8] = (Rx.x - Ry.y) / c1;
 }
 
+/* The normal-map kernels' prologue (shading.h's SHADE_PIXEL_PROLOGUE without its per-pixel
+ * normal-map fetch and quaternion, which these methods replace by the filtered pyramids):
+ * threads past n return; locals N, T, B, x, uv, kd, ks (textured), m, ob and the SSDF state
+ * `vis` (off under FLAG_NO_VISIBILITY). */
+#define NM_PIXEL_PROLOGUE \
+    int gid = get_global_id(0); \
+    if (gid >= n) return; \
+    float3 N = gnrm[gid].xyz, T = gtan[gid].xyz; \
+    float3 B = cross(N, T), x = gpos[gid].xyz; \
+    float2 uv = guv[gid]; \
+    int8 ob = objs[gobj[gid]]; \
+    __global const float *m = mats + OBJ_MAT(ob) * MAT_STRIDE; \
+    float3 kd = mat3(m, MAT_KD), ks = mat3(m, MAT_KS); \
+    if ((int)m[MAT_KDTEX] >= 0) kd *= tex_bilinear(texels, texinfo[(int)m[MAT_KDTEX]], uv).xyz; \
+    if ((int)m[MAT_KSTEX] >= 0) ks *= tex_bilinear(texels, texinfo[(int)m[MAT_KSTEX]], uv).xyz; \
+    Vis vis; \
+    vis_init(&vis, ob, OBJF_MAXD(objf[gobj[gid]]), gtri[gid], gbary[gid], vfaces, coeffs, \
+             ssdf_data, !(flags & FLAG_NO_VISIBILITY))
+
 #endif

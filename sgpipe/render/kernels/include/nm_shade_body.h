@@ -1,6 +1,6 @@
 /* Body of the normal-map kernels (included inside each __kernel function; NM_FILTER selects
  * the filter, nm_shade.h documents the shading). */
-    SHADE_PIXEL_PROLOGUE;
+    NM_PIXEL_PROLOGUE;
     int obj = gobj[gid];
     int4 info = nm_info[obj];
     __global const float *bp = nm_brdf + NM_BRDF_STRIDE * obj;
@@ -15,7 +15,7 @@
      * α, α·r, mean normals and γ_lm are averaged (linear in the NDF, eq 24) before κ, μ. */
     int l0 = 0, l1 = 0, ntap = 1;
     float f = 0.0f;
-    float2 uv0 = px.uv, du = (float2)(0.0f);
+    float2 uv0 = uv, du = (float2)(0.0f);
     if (info.w) {
         float4 duv = gduv[gid];
         float side = (float)nm_levels[info.x].y;
@@ -27,7 +27,7 @@
         if (max_taps > 1) {
             ntap = clamp((int)ceil(major / exp2(lod) - 1e-3f), 1, max_taps);
             du = lx >= ly ? duv.xy : duv.zw;
-            uv0 = px.uv - du * (0.5f - 0.5f / (float)ntap);
+            uv0 = uv - du * (0.5f - 0.5f / (float)ntap);
             du /= (float)ntap;
         }
         l0 = (int)floor(lod);
@@ -168,20 +168,20 @@
             float3 e = (float3)(0.0f);
             for (int k = 0; k < min(9, n_env_sh); ++k)
                 e += ah[k == 0 ? 0 : (k < 4 ? 1 : 2)] * gw[k] * nm_env_sh[k].xyz;
-            acc += px.kd * MF_INV_PI * fmax(e * env_scale, 0.0f);
+            acc += kd * MF_INV_PI * fmax(e * env_scale, 0.0f);
         } else
 #endif
         {
             /* the environment's diffuse part about the filtered normal (sg's SG-light sum) */
-            q = quat_from_z(normalize(to_local(nbar, T, B, N)));
-            qi = quat_conj(q);
-            op = lift(normalize(quat_rotate(qi, lift(to_local(o, T, B, N), 0.01f))), 0.01f);
+            float4 q = quat_from_z(normalize(to_local(nbar, T, B, N)));
+            float4 qi = quat_conj(q);
+            float3 op = lift(normalize(quat_rotate(qi, lift(to_local(o, T, B, N), 0.01f))), 0.01f);
             acc += diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, &vis);
         }
     }
     if (env_on) {
         for (int j = 0; j < nlob; ++j)
-            acc += lp[j].x * nm_spec_env(m, px.ks, model, ax[j], o, lp[j].y, lp[j].z, lp[j].w,
+            acc += lp[j].x * nm_spec_env(m, ks, model, ax[j], o, lp[j].y, lp[j].z, lp[j].w,
                                          la[j], T, B, N, &vis, pyr, pyr_off, pyr_res, pyr_lam,
                                          pyr_n, pyr_log_ratio, env_mean.xyz, pyr_pts, n_pts,
                                          pyr_raw, raw_n, env_scale);
@@ -225,12 +225,12 @@
                 float ci = dot(nbar, i);
                 if (ci > 0.0f) {
                     if (model == NM_BLINN) {
-                        spec = px.ks * (reff * ci);
+                        spec = ks * (reff * ci);
                     } else {
                         float co = dot(nbar, ol);
                         float3 hb = normalize(ol + i);
                         float ch = dot(nbar, hb), oh = dot(ol, hb);
-                        spec = px.ks * mf_fresnel(m, oh)
+                        spec = ks * mf_fresnel(m, oh)
                                * (nm_mf_g(model, ci, co, ch, oh, s) * reff / co);
                     }
                 }
@@ -244,9 +244,9 @@
             diff = fmax(dot(nbar, i), 0.0f);
 #endif
             for (int j = 0; j < nlob; ++j)
-                spec += lp[j].x * nm_spec(m, px.ks, model, ax[j], o, i, lp[j].y, lp[j].z,
+                spec += lp[j].x * nm_spec(m, ks, model, ax[j], o, i, lp[j].y, lp[j].z,
                                           lp[j].w, la[j]);
         }
-        acc += (px.kd * (diff * MF_INV_PI) + spec) * E;
+        acc += (kd * (diff * MF_INV_PI) + spec) * E;
     }
     out[gid] = (float4)(acc, 1.0f);
