@@ -85,6 +85,18 @@ def rfilter_dict(pixel_filter) -> dict:
 ENVMAP_TO_WORLD = np.eye(4)
 
 
+def envmap_to_world(rotation=None) -> np.ndarray:
+    """The envmap emitter's to_world (4, 4) for sgpipe's render.environment_rotation R (world ←
+    map, 3×3; None: ENVMAP_TO_WORLD): Mitsuba looks the map up at to_world⁻¹·ω = Rᵀω, as
+    sgpipe's lookups do."""
+    m = np.array(ENVMAP_TO_WORLD, float)
+    if rotation is not None:
+        r4 = np.eye(4)
+        r4[:3, :3] = np.asarray(rotation, float)
+        m = r4 @ m
+    return m
+
+
 def mitsuba_envmap_uv(dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(u, v) Mitsuba's envmap looks up for world directions (to_world = identity):
     u = atan2(x, −z)/2π mod 1, v = acos(y)/π."""

@@ -8,8 +8,9 @@ from __future__ import annotations
 import numpy as np
 
 from validation import import_mitsuba
-from validation.conventions import (ENVMAP_TO_WORLD, bsdf_dict, emitter_dict, envmap_for_mitsuba,
-                                    pixel_centres, rfilter_dict, sensor_params, sphere_to_world)
+from validation.conventions import (bsdf_dict, emitter_dict, envmap_for_mitsuba,
+                                    envmap_to_world, pixel_centres, rfilter_dict, sensor_params,
+                                    sphere_to_world)
 
 
 def _mesh(mi, spec, index, bsdf):
@@ -45,6 +46,13 @@ def _integrator(rs) -> dict:
             "hide_emitters": not rs.background}
 
 
+def _environment_rotation(rs):
+    """render.environment_rotation's 3×3 world ← map matrix, or None (also for configs of an
+    sgpipe without the key)."""
+    spec = getattr(rs, "environment_rotation", None)
+    return None if spec is None else spec.matrix()
+
+
 def scene_dict(cfg, *, spp: int = 64, env_factor=ENV_FACTOR, centre: bool = False) -> dict:
     """The Mitsuba scene dict of a validated sgpipe config (see docs/VALIDATION.md); `centre`:
     for render_centre, which never uses the film's filter (box then)."""
@@ -70,7 +78,8 @@ def scene_dict(cfg, *, spp: int = 64, env_factor=ENV_FACTOR, centre: bool = Fals
         d["environment"] = {"type": "envmap",
                             "bitmap": mi.Bitmap(envmap_for_mitsuba(env, *env_factor)),
                             "scale": environment_scale(cfg),
-                            "to_world": mi.ScalarTransform4f(ENVMAP_TO_WORLD)}
+                            "to_world": mi.ScalarTransform4f(envmap_to_world(
+                                _environment_rotation(rs)))}
     mats = {m.name: m for m in cfg.fit.materials}
     for k, spec in enumerate(cfg.scene.objects):
         bsdf = bsdf_dict(brdf_from_spec(mats[spec.material]))
