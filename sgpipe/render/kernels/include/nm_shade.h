@@ -181,8 +181,13 @@ inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 
     float ci = dot(n, w.p);
     if (ci <= 0.0f) return (float3)(0.0f);
     float3 f;
-    if (model == NM_BLINN) {          /* the cosine's mean over the lobe: (n·p)·A(λ) */
-        f = ks * (ci * mean_resultant(w.lam));
+    if (model == NM_BLINN) {
+        /* ∫ (n·h)^e (n·i) 4(o·h) dω_h: the SG's integral holds 4(o·n); the mean of
+         * (n·i)(o·h) over the h-lobe (tangential variance 1/e per axis), to second order in
+         * the offset δ of h from n, is c² + (2 − 5c²)/e, c = o·n (a grazing view's product
+         * grows with δ: the first-order terms cancel, the square does not) */
+        float co = fmax(dot(n, ol), 1e-3f);
+        f = ks * (fmax(co * co + (2.0f - 5.0f * co * co) / e, 0.0f) / co);
     } else {
         float co = dot(n, ol);
         float3 h = normalize(ol + w.p);
