@@ -51,8 +51,8 @@ class NdfSGSpec:
         "(ndf_asg.npz); sg = Wang09's SG lobes with free axes (ndf_sg.npz, always written: "
         "fis samples from them). Isotropic NDFs always use SG lobes.", "asg")
     asg_lobes: int = doc("ASG lobes sharing the tangent frame (0 = auto: the fewest of 1–3 "
-                         "with relative L2 error ≤ 5 %, e.g. 2 for GGX's tails).", 0, ge=0,
-                         le=8)
+                         "with relative L2 error ≤ 2 %: 1 for Beckmann / Ward, 3 for GGX's "
+                         "tails).", 0, ge=0, le=8)
 
 
 @dataclass
