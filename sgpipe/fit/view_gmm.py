@@ -195,9 +195,15 @@ def _coherent_fits(x, w, y, dirs, n_theta, n_phi, n_lobes, align, max_iter, tol)
 def fit_view_gmm(brdf, *, n_theta: int = 16, n_phi: int = 1, theta_max: float = np.radians(85),
                  n_lobes: int = 8, n_samples: int = 4096, max_iter: int = 100,
                  tol: float = 1e-5, coherent: bool = False, align: float = 1.0, seed: int = 0,
-                 include_diffuse: bool = False, errors: bool = True) -> ViewGMM:
+                 include_diffuse: bool = False, errors: bool = True,
+                 anisotropic_lobes: int = 0) -> ViewGMM:
     """Töral19 §IV: for views o_j draw M importance samples of ρ(i,o_j)(n·i), fit K vMF
-    lobes by spherical EM, scale amplitudes to the slice integral."""
+    lobes by spherical EM, scale amplitudes to the slice integral.
+
+    anisotropic_lobes > 0 replaces n_lobes for anisotropic BRDFs: an r:1 lobe needs a chain of
+    about r/2 isotropic vMFs along its long axis (fewer leave beads or blur its narrow side)."""
+    if anisotropic_lobes > 0 and not getattr(brdf, "isotropic", True):
+        n_lobes = int(anisotropic_lobes)
     theta, phi, dirs = view_grid(n_theta, n_phi, theta_max)
     x, w, y = draw_samples(brdf, dirs, n_samples, seed, include_diffuse)
     if coherent:
@@ -220,6 +226,50 @@ def fit_view_gmm(brdf, *, n_theta: int = 16, n_phi: int = 1, theta_max: float = 
             lambda j: slice_error(brdf, dirs[j], amp[j], mu[j], kappa[j], include_diffuse),
             range(len(dirs))))
     return gmm
+
+
+def warp_lobes(o_fit, o, mu, kappa):
+    """Carry lobes (mu (K,3), kappa (K,)) fitted at view o_fit to view o with each lobe's half
+    vector h = (μ + o_fit)/‖·‖ held fixed: μ' = 2(o·h)h − o, κ' = κ (o_fit·h)/(o·h) (the
+    reflection Jacobian dω_i = 4(o·h) dω_h, ratio bounded by 4). Mirror of gmm_shade.cl
+    warp_half: the NDF stays put in the tangent frame as the view moves."""
+    o_fit, o = np.asarray(o_fit, float), np.asarray(o, float)
+    mu = np.asarray(mu, float)
+    kappa = np.asarray(kappa, float)
+    h = mu + o_fit
+    ln = np.linalg.norm(h, axis=-1, keepdims=True)
+    ok = ln[..., 0] > 1e-4
+    h = h / np.where(ln > 1e-4, ln, 1.0)
+    og_h, op_h = h @ o_fit, h @ o
+    ok &= op_h > 1e-3
+    mu2 = np.where(ok[..., None], 2.0 * op_h[..., None] * h - o, mu)
+    k2 = np.where(ok, kappa * np.minimum(og_h / np.where(ok, op_h, 1.0), 4.0), kappa)
+    return mu2, k2
+
+
+def nearest_view_errors(brdf, gmm: ViewGMM, views, carry: str = "warp"):
+    """Relative L2 of the nearest grid view's mixture at arbitrary views (V,3), its lobes
+    carried by `carry`: "warp" (warp_lobes, the renderer's default), "rotate" (rigid rotation
+    of the mirror directions), "none" (Töral19)."""
+    errs = []
+    dirs = gmm.view_dirs
+    for o in np.asarray(views, float):
+        if len(gmm.view_phi) == 1:     # isotropic grid: views at φ = 0, turned to o's azimuth
+            j = int(np.argmin(np.abs(gmm.view_theta - np.arccos(np.clip(o[2], -1.0, 1.0)))))
+            a = np.arctan2(o[1], o[0])
+            rz = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0],
+                           [0.0, 0.0, 1.0]])
+            og, mu = rz @ dirs[j], gmm.mu[j] @ rz.T
+        else:
+            j = int(np.argmax(dirs @ o))
+            og, mu = dirs[j], gmm.mu[j]
+        kappa = gmm.kappa[j]
+        if carry == "warp":
+            mu, kappa = warp_lobes(og, o, mu, kappa)
+        elif carry == "rotate":
+            mu = mu @ rotation_between(mirror(og), mirror(o)).T
+        errs.append(slice_error(brdf, o, gmm.alpha[j], mu, kappa, gmm.includes_diffuse))
+    return np.array(errs)
 
 
 def interpolation_errors(brdf, gmm: ViewGMM):

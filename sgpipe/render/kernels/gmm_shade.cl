@@ -23,10 +23,14 @@
 #ifndef GMM_TAP_C
 #define GMM_TAP_C 1.0f
 #endif
-/* 1: carry each grid view's lobes along with its mirror direction to the pixel's (fixes the
- * nearest-view quantisation: up to half a θ step, and 22.5° of azimuth for 8 φ views). */
+/* How each grid view's lobes are carried to the pixel's view (the nearest-view quantisation:
+ * up to half a θ step, and 22.5° of azimuth for 8 φ views). 0: not at all (Töral19's nearest
+ * view); 1: rigidly, by the rotation taking the grid view's mirror direction to the pixel's;
+ * 2 (default): through each lobe's half vector, held fixed (warp_half) — the NDF stays put in
+ * the tangent frame, so an anisotropic lobe keeps its orientation instead of turning with the
+ * view's azimuth (rotation turned it by up to 22.5° at the φ cell borders: banding). */
 #ifndef GMM_ROTATE
-#define GMM_ROTATE 1
+#define GMM_ROTATE 2
 #endif
 /* 1: independent fits blend the radiance of the 2 (4 for φ grids) neighbouring views instead
  * of using the nearest one (+1–3 dB, 2–4× the cost; off by default). */
@@ -86,6 +90,20 @@ inline float3 gmm_lobe_integral(__global const float4 *mip, __global const int *
     }
     return acc * (1.0f / (float)GMM_TAPS);
 #endif
+}
+
+/* Carry lobe (axis, κ) fitted at view og to view op through its half vector h = (a + og)/‖·‖
+ * held fixed (the NDF is what stays put): a' = 2(op·h)h − op, and κ scaled by the reflection
+ * Jacobian dω_i = 4(o·h) dω_h: κ' = κ (og·h)/(op·h). */
+inline float3 warp_half(float3 og, float3 op, float3 a, float *kappa) {
+    float3 hv = a + og;
+    float l2 = dot(hv, hv);
+    if (l2 < 1e-8f) return a;
+    hv *= rsqrt(l2);
+    float og_h = dot(og, hv), op_h = dot(op, hv);
+    if (op_h <= 1e-3f) return a;
+    *kappa *= fmin(og_h / op_h, 4.0f);      /* grazing: bounded, like the views it comes from */
+    return 2.0f * op_h * hv - op;
 }
 
 /* The shortest-arc rotation taking unit a to unit b, applied to v (a·b > −1). */
@@ -159,7 +177,11 @@ __kernel void gmm_shade(GMM_SHADE_ARGS)
                     float phv = np > 1 ? 2.0f * 3.14159265358979f * (float)pp[c] / (float)np : ph;
                     float3 a, ax; float kp;
                     gmm_lobe(gmm, base, np, K, tt[c], pp[c], k, phv, &a, &kp, &ax);
-#if GMM_ROTATE
+#if GMM_ROTATE == 2
+                    float tv = m[MAT_GMM_TMAX] * (float)tt[c] / (float)max(nt - 1, 1);
+                    float3 og = (float3)(sin(tv) * cos(phv), sin(tv) * sin(phv), cos(tv));
+                    ax = warp_half(og, op, ax, &kp);
+#elif GMM_ROTATE
                     float tv = m[MAT_GMM_TMAX] * (float)tt[c] / (float)max(nt - 1, 1);
                     float3 mg = (float3)(-sin(tv) * cos(phv), -sin(tv) * sin(phv), cos(tv));
                     ax = rotate_between(mg, mpix, ax);
