@@ -178,6 +178,9 @@ inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 
                                      : amp * MF_INV_PI * (1.0f - a * a / 6.0f);
     }
     SG w = sg_warp(sg_make(n, lam_h, (float3)(amp_h)), ol);
+    /* a grazing view reflects into directions above n's horizon (i = 2(o·h)h − o with
+     * n·i > 0): the lobe's axis is kept one σ = 1/√λ above it */
+    w.p = normalize(nm_lift(w.p, n, fmin(rsqrt(w.lam), 0.5f)));
     float ci = dot(n, w.p);
     if (ci <= 0.0f) return (float3)(0.0f);
     float3 f;
@@ -192,7 +195,25 @@ inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 
         float co = dot(n, ol);
         float3 h = normalize(ol + w.p);
         float ch = dot(n, h), oh = dot(ol, h);
-        f = ks * mf_fresnel(m, oh) * (nm_mf_g(model, ci, co, ch, oh, a) / co);
+        /* the light-side masking over the lobe: its directions rise ~a above the axis at a
+         * grazing view (the axis value alone: −53 % at 87°) */
+        float cg = sqrt(ci * ci + 0.5f * a * a);
+        /* the Jacobian's o·h over the h-lobe (offset δ ~ N(0, 1/λ) towards o), counted where
+         * n·i > 0 (o·h > c/2): E = cΦ(t) + sσφ(t), t = c/(2sσ), instead of c at the axis */
+        float sg = rsqrt(lam_h), so = sqrt(fmax(1.0f - co * co, 1e-6f));
+        float t = co / (2.0f * so * sg);
+        float u = so * sg;
+        float eoh = co * 0.5f * erfc(-0.70710678f * t) + u * 0.39894228f * exp(-0.5f * t * t);
+        float g2;
+        if (model == NM_BECKMANN) {
+            g2 = nm_mf_g(model, cg, co, ch, oh, a) * eoh;
+        } else {   /* V-cavity: G·(o·h) = min(o·h, 2c) (view side), its mean over the lobe */
+            float t2 = co / u;
+            g2 = co * (0.5f * erfc(-0.70710678f * t2) - 0.5f * erfc(0.70710678f * t))
+                 + u * 0.39894228f * (exp(-0.5f * t * t) - exp(-0.5f * t2 * t2))
+                 + co * erfc(0.70710678f * t2);
+        }
+        f = ks * mf_fresnel(m, oh) * (g2 / (co * co));
     }
     w.mu *= f;
     float3 pl = to_local(w.p, T, B, N);
