@@ -102,7 +102,7 @@ class NormalMapData:
             if id(p) not in seen:
                 first = len(levels)
                 for lv, (a, ar, mean) in enumerate(zip(p.alpha, p.alpha_r, p.mean)):
-                    m, j = a.shape[0], a.shape[2]
+                    m = a.shape[0]
                     lob = np.concatenate([np.asarray(a, np.float32)[..., None],
                                           np.asarray(ar, np.float32)], -1).reshape(-1, 4)
                     mn = np.zeros((m * m, 4), np.float32)

@@ -76,7 +76,8 @@ def single_lobe_pyramid(mu, kappa, lobes=1, sh=None) -> NormalMapPyramid:
             (a_k * mu).reshape(1, 1, 3).astype(np.float32)]
     gamma = None
     if sh is not None:
-        gamma = [np.zeros((2, 2, len(sh)), np.float32), np.asarray(sh, np.float32).reshape(1, 1, -1)]
+        gamma = [np.zeros((2, 2, len(sh)), np.float32),
+                 np.asarray(sh, np.float32).reshape(1, 1, -1)]
     return NormalMapPyramid([a0, a1], [ar0, ar1], mean, gamma)
 
 

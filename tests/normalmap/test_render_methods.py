@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -73,7 +72,7 @@ def test_sgpipe_run_renders_and_compares_every_normal_map_method(tmp_path):
         assert (rd / f"{m}.png").is_file()
         if m != "reference":
             assert cmp[m]["surface"]["display_psnr_db"] > 15.0, (m, cmp[m])
-    assert f"[render] nm_sh vs reference" in r.stderr + r.stdout
+    assert "[render] nm_sh vs reference" in r.stderr + r.stdout
 
 
 def _render(tmp, normal_map, repeat):

@@ -17,7 +17,7 @@ from sgpipe.normalmap.sh import ndf_sh_pyramid
 from sgpipe.normalmap.vmf import bilinear
 from sgpipe.render.normalmap_data import NormalMapPyramid, specular_sh_coeffs
 from tests.normalmap.render_mirror import (banerjee_kappa, blinn_lobe, directional, eq20_lobe,
-                                           flat_frame, g1_beckmann, material, renderer,
+                                           flat_frame, g1_beckmann, renderer,
                                            single_lobe_pyramid, unit)
 
 SIDE = 16
