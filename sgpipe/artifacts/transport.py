@@ -24,16 +24,21 @@ def object_file(obj: str, name: str) -> str:
 
 # -- writers (the transport stage) -------------------------------------------------------------
 def write_object(sink, obj: str, *, packed: dict, cube_resolution: int, gaussians: int,
-                 sh, diffuse_rgb, positions, normals, faces) -> None:
+                 sh, diffuse_rgb, positions, normals, faces, sh_indirect=None) -> None:
     """The three files of one object. `packed` is `sgpipe.transport.compact.encode`'s output:
     stored_mask / weight_mask (X, 12) uint8 bitsets over the 92 views, dirs (R, K, 2) uint16
     octahedral, sigma_code (R, K) uint8 over sigma_range (radians, log-uniform), weights
-    (A, K, 3) float16 — rows in vertex-major, view-minor order of the set bits."""
+    (A, K, 3) float16 — rows in vertex-major, view-minor order of the set bits. `sh` (X, 25)
+    is the shadowed transfer, `sh_indirect` (X, 25, 3) the interreflected part (RGB: the
+    bounces take the colours of the surfaces met; None: zero, as without transport.indirect)."""
+    sh = np.asarray(sh, np.float32)
+    ind = (np.zeros(sh.shape + (3,), np.float32) if sh_indirect is None
+           else np.asarray(sh_indirect, np.float32))
     sink.write_npz(object_file(obj, GAUSSIANS), {
         **packed, "cube_resolution": np.int32(cube_resolution),
         "gaussians": np.int32(gaussians), "vertices": np.int32(len(positions))})
     sink.write_npz(object_file(obj, SH_TRANSFER), {
-        "transfer": np.asarray(sh, np.float32), "lmax": np.int32(4),
+        "transfer": sh, "transfer_indirect": ind, "lmax": np.int32(4),
         "diffuse_rgb": np.asarray(diffuse_rgb, np.float32)})
     f = np.float32
     sink.write_npz(object_file(obj, GEOMETRY), {
@@ -101,12 +106,30 @@ def read_gaussians(folder: str | Path, obj: str):
 
 
 def read_sh_transfer(folder: str | Path, obj: str) -> tuple[np.ndarray, np.ndarray]:
-    """(transfer (X, 25) float32 in the world-frame real SH of sgpipe.core.sh, diffuse f_d
-    RGB): diffuse radiance = f_d · Σ_k L_k t_k."""
+    """(shadowed transfer (X, 25) float32 in the world-frame real SH of sgpipe.core.sh,
+    diffuse f_d RGB): direct diffuse radiance = f_d · Σ_k L_k t_k (no interreflection:
+    `read_sh_transfer_rgb` adds it)."""
     arrays = read_npz(Path(folder) / object_file(obj, SH_TRANSFER))
     return arrays["transfer"], arrays["diffuse_rgb"]
 
 
+def read_sh_transfer_rgb(folder: str | Path, obj: str) -> tuple[np.ndarray, np.ndarray]:
+    """(full transfer (X, 25, 3) float32 = shadowed + interreflected per colour channel,
+    diffuse f_d RGB): diffuse radiance_c = f_d,c · Σ_k L_k,c t_k,c. Files written before the
+    interreflected part existed (no `transfer_indirect`) read as shadowed only."""
+    path = Path(folder) / object_file(obj, SH_TRANSFER)
+    arrays = read_npz(path)
+    t = np.asarray(arrays["transfer"], np.float32)
+    full = np.repeat(t[..., None], 3, axis=-1)
+    if "transfer_indirect" in arrays:
+        ind = arrays["transfer_indirect"]
+        if ind.shape != full.shape:
+            raise BadInput(f"transfer_indirect has shape {ind.shape}, expected {full.shape}",
+                           file=path, key="transfer_indirect")
+        full = full + ind
+    return full, arrays["diffuse_rgb"]
+
+
 __all__ = ["GAUSSIANS", "SH_TRANSFER", "GEOMETRY", "REPORT", "object_file", "write_object",
-           "read_packed_gaussians", "read_sh_transfer", "N_VIEWS",
+           "read_packed_gaussians", "read_sh_transfer", "read_sh_transfer_rgb", "N_VIEWS",
            "oct_decode", "sigma_decode", "unpack_views", "decode_gaussians", "read_gaussians"]

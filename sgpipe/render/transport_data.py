@@ -75,10 +75,22 @@ def pack_gaussians(mu, sigma, w) -> np.ndarray:
     return rec.reshape(-1, 4)
 
 
+def rgb_transfer(transfer) -> np.ndarray:
+    """(X, 25, 3) float32 transfer: an RGB transfer as it is, a grey (X, 25) one per channel."""
+    t = np.asarray(transfer, np.float32)
+    if t.ndim == 2:
+        t = np.repeat(t[..., None], 3, axis=-1)
+    if t.ndim != 3 or t.shape[1:] != (SH_COEFFS, 3):
+        raise ValueError(f"SH transfer of shape {t.shape}: expected (X, {SH_COEFFS}[, 3])")
+    return t
+
+
 def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None) -> dict:
     """Kernel arrays for per-object data `objects` (None, or dict with mu, sigma, w, transfer
-    (X, 25), diffuse_rgb (3,), faces (F, 3)) and SH light coefficients (n, 3) of the map,
-    turned by `rotation` (3×3 world ← map, or None)."""
+    (X, 25, 3) per colour channel — or (X, 25), the same in every channel —, diffuse_rgb (3,),
+    faces (F, 3)) and SH light coefficients (n, 3) of the map, turned by `rotation` (3×3
+    world ← map, or None). tp_sh is (X·25·3) floats, vertex-major, then coefficient, then RGB
+    (the kernel's vload3 per coefficient)."""
     light_sh = rotate_sh(light_sh, rotation)
     rows, faces, gauss, sh, fd = [], [], [], [], []
     v0 = f0 = 0
@@ -97,7 +109,7 @@ def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None) -> dict
         rows.append((v0, f0, K, 1))
         faces.append(np.asarray(o["faces"], np.int32).reshape(-1))
         gauss.append(pack_gaussians(mu, sigma, w))
-        sh.append(np.asarray(o["transfer"], np.float32).reshape(-1))
+        sh.append(rgb_transfer(o["transfer"]).reshape(-1))
         fd.append(np.append(np.asarray(o["diffuse_rgb"], np.float32), 0.0))
         v0 += X
         f0 += len(o["faces"])
@@ -121,7 +133,7 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
     `<out>/transport/`. The kernel indexes them with the frame's SSDF-mesh triangles, so each
     object's transport mesh must be its visibility mesh (`ssdf_faces`, per object or None)."""
     from sgpipe.artifacts.transport import (GEOMETRY, object_file, read_gaussians,
-                                            read_sh_transfer)
+                                            read_sh_transfer_rgb)
     from sgpipe.io import read_npz
     folder = Path(out_dir) / "transport"
     if cfg.transport is None or not (folder / "manifest.json").is_file():
@@ -131,7 +143,7 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
     out = []
     for k, spec in enumerate(cfg.scene.objects):
         mu, sigma, w, _ = read_gaussians(folder, spec.name)
-        transfer, fd = read_sh_transfer(folder, spec.name)
+        transfer, fd = read_sh_transfer_rgb(folder, spec.name)
         faces = read_npz(folder / object_file(spec.name, GEOMETRY))["faces"]
         ref = ssdf_faces[k]
         if ref is None or np.shape(ref) != np.shape(faces) or not np.array_equal(ref, faces):
@@ -167,4 +179,5 @@ def upload_transport(renderer, arrays: dict) -> None:
 
 
 __all__ = ["MAX_GAUSSIANS", "view_tables", "sh_rotation_matrix", "rotate_sh", "pack_gaussians",
+           "rgb_transfer",
            "transport_arrays", "load_transport_objects", "attach_transport", "upload_transport"]

@@ -1,6 +1,7 @@
 """The transport stage: `cfg.transport` + `cfg.scene` + `cfg.fit.materials` -> artifacts under
-`<out>/transport/` (sgpipe.artifacts.transport). Green06 §4: direct glossy transport per vertex
-and view, fitted with Gaussians (eq 6), stored compactly; the diffuse part as SH PRT."""
+`<out>/transport/` (sgpipe.artifacts.transport). Green06 §4: glossy transport per vertex and view
+(direct, plus the indirect T^IG of eq 5 with `transport.indirect`), fitted with Gaussians
+(eq 6), stored compactly; the diffuse part as SH PRT (shadowed, plus interreflected)."""
 
 from __future__ import annotations
 
@@ -17,10 +18,11 @@ from sgpipe.io.mesh import load_scene
 from sgpipe.parallel import map_chunks
 from sgpipe.stages.base import StageRun, log
 from sgpipe.transport import compact
-from sgpipe.transport.chunk import TransportTask, flood_order, run_chunk, vertex_adjacency
+from sgpipe.transport.chunk import (IndirectOptions, TransportTask, flood_order, run_chunk,
+                                    vertex_adjacency)
 from sgpipe.transport.fit import FitOptions
 from sgpipe.transport.interp import evaluate
-from sgpipe.transport.sampling import light_cube
+from sgpipe.transport.sampling import PathScene, light_cube
 
 
 def run(cfg, out_dir: Path, *, force: bool = False):
@@ -103,8 +105,14 @@ def _run(cfg, run: StageRun, tmp: Path, geoms, materials) -> None:
                       delta=t.delta, max_iter=t.max_iterations, ftol=t.tolerance,
                       sigma_min=float(np.radians(t.sigma_min_resolved_deg())),
                       sigma_max=float(np.radians(t.sigma_max_deg)))
+    # indirect paths run through every object of the scene with its own BRDF
+    paths = (PathScene.from_geometry(geoms, [(m[1], m[2]) for m in materials])
+             if t.indirect else None)
     tasks, owner = [], []
     for k, (g, (_, model, params, _)) in enumerate(zip(geoms, materials)):
+        ind = None if paths is None else IndirectOptions(
+            paths, k, int(cfg.seed), t.indirect_bounces, t.indirect_paths,
+            t.indirect_transfer_paths)
         adj = vertex_adjacency(g.faces, len(g.positions))
         order = flood_order(adj)
         b = g.bitangents
@@ -113,11 +121,14 @@ def _run(cfg, run: StageRun, tmp: Path, geoms, materials) -> None:
             tasks.append(TransportTask(str(tri_path), o, g.positions[o], g.normals[o],
                                        g.tangents[o], b[o], [adj[i] for i in o], model, params,
                                        t.cube_resolution, offset, opts,
-                                       float(np.sin(np.radians(t.min_view_elevation_deg)))))
+                                       float(np.sin(np.radians(t.min_view_elevation_deg))),
+                                       ind))
             owner.append(k)
     n_vert = sum(len(g.positions) for g in geoms)
     log(f"[transport] {len(geoms)} objects, {n_vert} vertices × 92 views, "
-        f"{t.gaussians} Gaussian(s), light cube 6×{t.cube_resolution}²")
+        f"{t.gaussians} Gaussian(s), light cube 6×{t.cube_resolution}²"
+        + (f", indirect ({t.indirect_bounces} bounces, {t.indirect_paths} paths per view, "
+           f"{t.indirect_transfer_paths} per occluded texel)" if t.indirect else ""))
     t0 = time.perf_counter()
     results = map_chunks(run_chunk, tasks, workers=cfg.workers or None,
                          desc="transport: sampling + fitting")
@@ -141,16 +152,17 @@ def _write_object(run, cfg, g, mat, results) -> dict:
     t = cfg.transport
     n, K = len(g.positions), t.gaussians
     mu, sigma = np.zeros((n, 92, K, 3)), np.zeros((n, 92, K))
-    w, sh = np.zeros((n, 92, K, 3)), np.zeros((n, 25))
+    w, sh, sh_ind = np.zeros((n, 92, K, 3)), np.zeros((n, 25)), np.zeros((n, 25, 3))
     err, iters, vis = np.zeros(n), np.zeros(n, np.int64), np.zeros(n)
     for r in results:
         mu[r.order], sigma[r.order], w[r.order] = r.mu, r.sigma, r.w
         sh[r.order], err[r.order], iters[r.order], vis[r.order] = r.sh, r.rel_err, r.iters, \
             r.visible
+        sh_ind[r.order] = r.sh_indirect
     lo, hi = np.radians(t.sigma_min_resolved_deg()), np.radians(t.sigma_max_deg)
     packed = compact.encode(mu, sigma, w, lo, hi)
     artifacts.write_object(run, g.name, packed=packed, cube_resolution=t.cube_resolution,
-                           gaussians=K, sh=sh, diffuse_rgb=mat[3], positions=g.positions,
+                           gaussians=K, sh=sh, sh_indirect=sh_ind, diffuse_rgb=mat[3], positions=g.positions,
                            normals=g.normals, faces=g.faces)
     nbytes, paper = compact.nbytes(packed), compact.paper_bytes(n, K)
     return {
@@ -160,6 +172,9 @@ def _write_object(run, cfg, g, mat, results) -> dict:
         "fit_rel_err_mean": float(err.mean()), "fit_rel_err_p95": float(np.percentile(err, 95)),
         "lm_iterations_mean": float(iters.mean()),
         "visible_fraction_mean": float(vis.mean()),
+        # |indirect| / |shadowed| of the SH transfer (L2 over vertices, coefficients, RGB)
+        "sh_indirect_over_shadowed": float(np.linalg.norm(sh_ind)
+                                           / max(np.sqrt(3) * np.linalg.norm(sh), 1e-30)),
     }
 
 

@@ -3,6 +3,10 @@ order. Per vertex: trace visibility over the light cube, sample the direct gloss
 the 92 views (eq 2), its SH transfer, and fit the Gaussians (eq 6) — starting from an already
 fitted neighbour in the same chunk and holding the fitted neighbours' means in the spatial term
 (Green06 §4.2's flood fill). The transport itself is never stored: it lives for one vertex.
+With `TransportTask.indirect` the indirect glossy part T^IG (eq 5) is added to T before the fit
+and the interreflected SH transfer is kept beside the shadowed one; each vertex's random
+numbers come from its own generator seeded by (config seed, object, vertex), so no result
+depends on which chunk or worker a vertex fell into.
 
 Chunks depend only on their inputs (never on other chunks or the worker count), so the
 artifacts are the same bytes for any number of workers.
@@ -19,8 +23,9 @@ import numpy as np
 from sgpipe.brdf import make_brdf
 from sgpipe.transport.fit import (FitOptions, VertexFit, VertexProblem, fit_vertex,
                                   init_from_neighbour, init_params)
-from sgpipe.transport.sampling import light_cube, vertex_transport, vertex_visibility
-from sgpipe.transport.sh_transfer import texel_basis, transfer_vector
+from sgpipe.transport.sampling import (PathScene, light_cube, vertex_indirect_transport,
+                                       vertex_transport, vertex_visibility)
+from sgpipe.transport.sh_transfer import interreflected_transfer, texel_basis, transfer_vector
 from sgpipe.transport.views import view_set
 from sgpipe.visibility.trace import scene_from_file
 
@@ -75,6 +80,25 @@ class TransportTask:
     offset: float
     opts: FitOptions
     min_cos: float = 0.0
+    #: transport.indirect's paths, or None for direct transport only
+    indirect: "IndirectOptions | None" = None
+
+
+@dataclass
+class IndirectOptions:
+    """The indirect transport of one object's vertices (Green06 §4.1 eq 5): the scene the
+    paths run through, the object's index and the config seed (the per-vertex RNG streams)."""
+
+    scene: PathScene
+    object_index: int
+    seed: int
+    bounces: int
+    paths: int
+    transfer_paths: int
+
+    def vertex_rng(self, vertex: int) -> np.random.Generator:
+        """The random stream of one vertex, whatever chunk or worker it runs in."""
+        return np.random.default_rng([self.seed, self.object_index, int(vertex)])
 
 
 @dataclass
@@ -87,6 +111,7 @@ class TransportResult:
     rel_err: np.ndarray     # (n,) relative L2 error of the fit over all active views (pooled)
     iters: np.ndarray       # (n,)
     visible: np.ndarray     # (n,) fraction of the upper-hemisphere light texels unoccluded
+    sh_indirect: np.ndarray = None  # (n, 25, 3) interreflected transfer (zero without indirect)
     fitted: int = 0         # vertices with glossy transport (the others have zero weights)
     transport_s: float = 0.0
     fit_s: float = 0.0
@@ -104,7 +129,8 @@ def run_chunk(task: TransportTask) -> TransportResult:
     n, K = len(task.order), task.opts.gaussians
     res = TransportResult(task.order, np.zeros((n, 92, K, 3)), np.zeros((n, 92, K)),
                           np.zeros((n, 92, K, 3)), np.zeros((n, basis.shape[1])), np.zeros(n),
-                          np.zeros(n, np.int64), np.zeros(n))
+                          np.zeros(n, np.int64), np.zeros(n), np.zeros((n, basis.shape[1], 3)))
+    ind = task.indirect
     done: dict[int, int] = {}         # global vertex → row of res
     for i in range(n):
         t0 = time.perf_counter()
@@ -112,6 +138,14 @@ def run_chunk(task: TransportTask) -> TransportResult:
         vis = vertex_visibility(scene, task.positions[i], nrm, cube.dirs, task.offset)
         T, active = vertex_transport(brdf, nrm, tan, bit, views, cube, vis, task.min_cos)
         res.sh[i] = transfer_vector(basis, cube, nrm, vis)
+        if ind is not None:
+            rng = ind.vertex_rng(task.order[i])
+            T = T + vertex_indirect_transport(ind.scene, brdf, task.positions[i], nrm, tan, bit,
+                                              views, active, cube, paths=ind.paths,
+                                              bounces=ind.bounces, offset=task.offset, rng=rng)
+            res.sh_indirect[i] = interreflected_transfer(
+                ind.scene, cube, task.positions[i], nrm, vis, paths=ind.transfer_paths,
+                bounces=ind.bounces, offset=task.offset, rng=rng)
         up = cube.dirs @ nrm > 0
         res.visible[i] = vis[up].mean() if up.any() else 0.0
         t1 = time.perf_counter()
@@ -143,4 +177,5 @@ def run_chunk(task: TransportTask) -> TransportResult:
     return res
 
 
-__all__ = ["vertex_adjacency", "flood_order", "TransportTask", "TransportResult", "run_chunk"]
+__all__ = ["vertex_adjacency", "flood_order", "TransportTask", "IndirectOptions",
+           "TransportResult", "run_chunk"]

@@ -49,8 +49,9 @@ class TransportSection:
                             ge=1)
     indirect: bool = doc("Add the indirect transport (Green06 §4.1 eq 5): the indirect glossy "
                          "part T^IG by BRDF-importance-sampled paths along each view, and the "
-                         "interreflected SH transfer (sgpipe.transport.sampling / sh_transfer). "
-                         "Not wired into the stage yet: must be false.", False)
+                         "interreflected SH transfer (sgpipe.transport.sampling / sh_transfer), "
+                         "RGB since the bounces take the surfaces' colours. Each vertex draws "
+                         "from its own random stream (seed, object, vertex).", False)
     indirect_bounces: int = doc("With `indirect`: surfaces a path may meet after the vertex "
                                 "before it must leave the scene (absorbed otherwise), as "
                                 "`render.reference_bounces`.", 2, ge=1, le=8)
@@ -80,7 +81,3 @@ class TransportSection:
                              f"{self.cube_resolution}")
         if not self.sigma_min_resolved_deg() < self.sigma_max_deg:
             raise ValueError("sigma_max_deg: must be larger than sigma_min_deg")
-        if self.indirect:
-            raise ValueError("indirect: the indirect transport (sgpipe.transport.sampling."
-                             "vertex_indirect_transport, sh_transfer.interreflected_transfer) "
-                             "is not wired into the transport stage yet; set indirect: false")

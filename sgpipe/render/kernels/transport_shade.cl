@@ -47,10 +47,12 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
             }
         }
         if (!(flags & FLAG_NO_ENV_DIFFUSE)) {
-            /* the transfer vector is linear: blend it, then one dot product with the light */
+            /* the transfer vector is linear: blend it, then one dot product with the light
+               per colour channel (interreflected transfer is RGB: tp_sh is (X, 25, 3)) */
             for (int j = 0; j < tp_sh_n; ++j) {
-                float t = bt[0] * tp_sh[vert[0] * 25 + j] + bt[1] * tp_sh[vert[1] * 25 + j]
-                          + bt[2] * tp_sh[vert[2] * 25 + j];
+                float3 t = bt[0] * vload3(vert[0] * 25 + j, tp_sh)
+                           + bt[1] * vload3(vert[1] * 25 + j, tp_sh)
+                           + bt[2] * vload3(vert[2] * 25 + j, tp_sh);
                 rd += t * tp_light_sh[j].xyz;
             }
             rd *= tp_fd[gobj[gid]].xyz * env_scale;
