@@ -162,8 +162,8 @@ def _write_object(run, cfg, g, mat, results) -> dict:
     lo, hi = np.radians(t.sigma_min_resolved_deg()), np.radians(t.sigma_max_deg)
     packed = compact.encode(mu, sigma, w, lo, hi)
     artifacts.write_object(run, g.name, packed=packed, cube_resolution=t.cube_resolution,
-                           gaussians=K, sh=sh, sh_indirect=sh_ind, diffuse_rgb=mat[3], positions=g.positions,
-                           normals=g.normals, faces=g.faces)
+                           gaussians=K, sh=sh, sh_indirect=sh_ind, diffuse_rgb=mat[3],
+                           positions=g.positions, normals=g.normals, faces=g.faces)
     nbytes, paper = compact.nbytes(packed), compact.paper_bytes(n, K)
     return {
         "vertices": int(n), "compact_bytes": nbytes, "paper_bytes": paper,
