@@ -69,3 +69,22 @@ def test_blend_across_a_triangle_keeps_correspondence():
     m, s, _ = blend_gaussians(mu, sig, w, np.array([0.5, 0.5, 0.0]))
     assert np.allclose(m[0], np.array([1, 1, 0]) / np.sqrt(2)) and np.allclose(m[1], [0, 0, 1])
     assert np.allclose(s, [0.15, 0.5])
+
+
+def test_blend_keeps_the_integral_of_narrow_and_broad_lobes():
+    """A narrow bright lobe and a broad dim one (grazing vs steeper views): the blended lobe's
+    integral over the sphere (quadrature on the light cube) is the blend of their integrals;
+    blending w and σ separately would overshoot it by > 30 % half way."""
+    cube = light_cube(64)
+    n = np.array([0.0, 1.0, 0.0])
+    mu = np.tile(n, (3, 1, 1))
+    sigma = np.array([[0.05], [0.15], [0.6]])
+    w = np.array([[[5.6, 5.0, 4.0]], [[1.1, 1.0, 0.9]], [[0.2, 0.2, 0.1]]])
+    integral = [evaluate(cube.dirs, mu[i], sigma[i], w[i]).T @ cube.omega for i in range(3)]
+    for b in ([0.5, 0.5, 0.0], [0.2, 0.3, 0.5], [1.0, 0.0, 0.0]):
+        m, s, ww = blend_gaussians(mu, sigma, w, np.array(b))
+        got = evaluate(cube.dirs, m, s, ww).T @ cube.omega
+        want = sum(bi * t for bi, t in zip(b, integral))
+        assert np.allclose(got, want, rtol=1e-3), (b, got, want)
+    naive = evaluate(cube.dirs, mu[0], [0.1], 0.5 * (w[0] + w[1])).T @ cube.omega
+    assert np.all(naive > 1.3 * 0.5 * (integral[0] + integral[1]))

@@ -1,6 +1,7 @@
 /* Green06 §3.2/§5 on the device: a vertex's Gaussians interpolated across the three nearest of
  * the 92 views (gnomonic barycentrics of the geodesic triangle the view ray crosses), then
- * across the hit triangle's vertices — blending parameters (μ normalised, σ, w), never values.
+ * across the hit triangle's vertices — blending parameters (μ normalised, σ, the lobe's
+ * integral), never values.
  * Mirrors sgpipe.transport.interp (blend_gaussians, interpolate_views) and views.nearest_views.
  * Gaussian record (sgpipe.render.transport_data): per (vertex, view, k) two float4,
  * (μ.xyz, σ) and (w.rgb, 0), at ((vertex·92 + view)·K + k)·2. */
@@ -32,15 +33,26 @@ inline void tp_nearest_views(float3 q, __global const float4 *vinv, __global con
     bv[0] = beta.x; bv[1] = beta.y; bv[2] = beta.z;
 }
 
+/* interp.lobe_area: ∫ exp((ω·μ − 1)/σ²) dω / 2π = σ² (1 − e^{−2/σ²}), 0 at σ = 0. */
+inline float tp_lobe_area(float s) {
+    float s2 = s * s;
+    return s2 > 0.0f ? -s2 * expm1(-2.0f / s2) : 0.0f;
+}
+
 /* blend_gaussians for one Gaussian: μ = normalize(Σ b_i μ_i) (μ_0 when the sum vanishes),
- * σ = Σ b_i σ_i, w = Σ b_i w_i. */
+ * σ = Σ b_i σ_i, and w with w A(σ) = Σ b_i w_i A(σ_i): the integrals blend linearly (blending
+ * w and σ separately overshoots between a narrow bright and a broad dim lobe). */
 inline void tp_blend(const float3 *mu, const float *sig, const float3 *w, const float *b,
                      float3 *mu_o, float *sig_o, float3 *w_o) {
     float3 m = b[0] * mu[0] + b[1] * mu[1] + b[2] * mu[2];
     float l = length(m);
     *mu_o = l > 0.0f ? m / l : mu[0];
-    *sig_o = b[0] * sig[0] + b[1] * sig[1] + b[2] * sig[2];
-    *w_o = b[0] * w[0] + b[1] * w[1] + b[2] * w[2];
+    float s = b[0] * sig[0] + b[1] * sig[1] + b[2] * sig[2];
+    *sig_o = s;
+    float3 a = b[0] * tp_lobe_area(sig[0]) * w[0] + b[1] * tp_lobe_area(sig[1]) * w[1]
+               + b[2] * tp_lobe_area(sig[2]) * w[2];
+    float as = tp_lobe_area(s);
+    *w_o = as > 0.0f ? a / as : (float3)(0.0f);
 }
 
 /* interpolate_views for Gaussian k of vertex `vert` (global row) at the views iv, weights bv. */
