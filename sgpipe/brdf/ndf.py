@@ -9,6 +9,8 @@ and `sg_analytic()` -> (λ, μ) of a single SG lobe about +z matching D's peak c
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 _TWO_PI = 2.0 * np.pi
@@ -282,3 +284,13 @@ class TabulatedNDF(NDF):
     def width(self):
         half = self.values >= 0.5 * self.values.max()
         return float(max(self.theta[half].max(), 0.01))
+
+
+def beckmann_ndf(u, alpha: float) -> np.ndarray:
+    """Beckmann D(θ_h) = e^{−tan²θ/α²}/(πα² cos⁴θ) on the upper hemisphere (∫ D cos dω = 1)."""
+    u = np.asarray(u, float)
+    pos = u > 1e-8
+    us = np.where(pos, u, 1.0)
+    t2 = (1.0 - us * us) / (us * us)
+    return np.where(pos, np.exp(-np.minimum(t2 / alpha ** 2, 700.0))
+                    / (math.pi * alpha ** 2 * us ** 4), 0.0)

@@ -11,9 +11,11 @@ Evaluation uses sin^m θ (cos mφ, sin mφ) = (Re, Im)(x + iy)^m, so it is exact
 """
 from __future__ import annotations
 
+import math
 from math import factorial
 
 import numpy as np
+from scipy.special import eval_legendre
 
 
 def sh_index(l, m):
@@ -92,3 +94,31 @@ def sh_expand_bands(per_band):
     """Repeat a per-band array (lmax+1,) to per-coefficient ((lmax+1)²,)."""
     per_band = np.asarray(per_band)
     return np.repeat(per_band, 2 * np.arange(per_band.shape[0]) + 1, axis=0)
+
+
+# θ subintervals for ρ̂_l quadrature: geometric near the pole, where sharp lobes live.
+_THETA_EDGES = np.array([0.0, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 0.7, 1.2, math.pi / 2,
+                         2.2, math.pi])
+_NODES = 48
+
+
+def zonal_theta_rule() -> tuple[np.ndarray, np.ndarray]:
+    """Gauss–Legendre nodes θ and weights for ∫₀^π g(θ) sin θ dθ (composite, exact for the
+    polynomial pieces; the kink of max(u, 0) sits on the edge π/2)."""
+    x, w = np.polynomial.legendre.leggauss(_NODES)
+    th, wt = [], []
+    for a, b in zip(_THETA_EDGES[:-1], _THETA_EDGES[1:]):
+        th.append(0.5 * (b - a) * x + 0.5 * (b + a))
+        wt.append(0.5 * (b - a) * w)
+    th = np.concatenate(th)
+    return th, np.concatenate(wt) * np.sin(th)
+
+
+def zonal_coeffs(f, lmax: int) -> np.ndarray:
+    """ρ̂_l = 2π ∫_{−1}^{1} f(u) P_l(u) du for l = 0..lmax of a radially symmetric f(u), u the
+    cosine to its axis (eq 11: ρ̂_l = √(4π/(2l+1)) f_l)."""
+    th, w = zonal_theta_rule()
+    u = np.cos(th)
+    fu = np.asarray(f(u), float)
+    return np.array([2.0 * math.pi * float(np.sum(w * fu * eval_legendre(l, u)))
+                     for l in range(lmax + 1)])

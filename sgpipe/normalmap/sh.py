@@ -11,37 +11,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.special import eval_legendre
 
-from sgpipe.core.sh import sh_eval, sh_expand_bands, sh_irradiance_coeffs
+from sgpipe.brdf.ndf import beckmann_ndf  # noqa: F401  (re-exported: the SH method's D)
+from sgpipe.core.sh import (sh_eval, sh_expand_bands, sh_irradiance_coeffs, zonal_coeffs,
+                            zonal_theta_rule)
 from sgpipe.normalmap.pyramid import level_count
-
-# θ subintervals for ρ̂_l quadrature: geometric near the pole, where sharp lobes live.
-_THETA_EDGES = np.array([0.0, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 0.7, 1.2, math.pi / 2,
-                         2.2, math.pi])
-_NODES = 48
-
-
-def _theta_rule() -> tuple[np.ndarray, np.ndarray]:
-    """Gauss–Legendre nodes θ and weights for ∫₀^π g(θ) sin θ dθ (composite, exact for the
-    polynomial pieces; the kink of max(u, 0) sits on the edge π/2)."""
-    x, w = np.polynomial.legendre.leggauss(_NODES)
-    th, wt = [], []
-    for a, b in zip(_THETA_EDGES[:-1], _THETA_EDGES[1:]):
-        th.append(0.5 * (b - a) * x + 0.5 * (b + a))
-        wt.append(0.5 * (b - a) * w)
-    th = np.concatenate(th)
-    return th, np.concatenate(wt) * np.sin(th)
-
-
-def zonal_coeffs(f, lmax: int) -> np.ndarray:
-    """ρ̂_l = 2π ∫_{−1}^{1} f(u) P_l(u) du for l = 0..lmax of a radially symmetric f(u), u the
-    cosine to its axis (eq 11: ρ̂_l = √(4π/(2l+1)) f_l)."""
-    th, w = _theta_rule()
-    u = np.cos(th)
-    fu = np.asarray(f(u), float)
-    return np.array([2.0 * math.pi * float(np.sum(w * fu * eval_legendre(l, u)))
-                     for l in range(lmax + 1)])
 
 
 def lambert_coeffs(lmax: int = 2) -> np.ndarray:
@@ -60,16 +34,6 @@ def torrance_sparrow_coeffs(sigma: float, lmax: int) -> np.ndarray:
                         / (4.0 * math.pi * sigma ** 2), lmax)
 
 
-def beckmann_ndf(u, alpha: float) -> np.ndarray:
-    """Beckmann D(θ_h) = e^{−tan²θ/α²}/(πα² cos⁴θ) on the upper hemisphere (∫ D cos dω = 1)."""
-    u = np.asarray(u, float)
-    pos = u > 1e-8
-    us = np.where(pos, u, 1.0)
-    t2 = (1.0 - us * us) / (us * us)
-    return np.where(pos, np.exp(-np.minimum(t2 / alpha ** 2, 700.0))
-                    / (math.pi * alpha ** 2 * us ** 4), 0.0)
-
-
 def beckmann_coeffs(alpha: float, lmax: int) -> np.ndarray:
     """Beckmann microfacet D as f(ω_h · n) (Torrance–Sparrow's distribution; σ ≈ α/2)."""
     return zonal_coeffs(lambda u: beckmann_ndf(u, alpha), lmax)
@@ -85,7 +49,7 @@ def tabulated_coeffs(theta_h: np.ndarray, values: np.ndarray, lmax: int) -> np.n
         th = np.arccos(np.clip(u, -1.0, 1.0))
         return np.where(u > 0, np.interp(th, theta_h, values), 0.0)
 
-    th, w = _theta_rule()
+    th, w = zonal_theta_rule()
     mass = 2.0 * math.pi * float(np.sum(w * f(np.cos(th)) * np.maximum(np.cos(th), 0.0)))
     return zonal_coeffs(f, lmax) / mass
 
@@ -93,7 +57,7 @@ def tabulated_coeffs(theta_h: np.ndarray, values: np.ndarray, lmax: int) -> np.n
 def brdf_coeffs(brdf, lmax: int) -> np.ndarray:
     """ρ̂_l of an `sgpipe.brdf` BRDF's specular distribution (its peak-normalised `ndf`, made a
     unit microfacet density): the measured (MERL / tabulated) and analytic models alike."""
-    th, _ = _theta_rule()
+    th, _ = zonal_theta_rule()
     th = th[th < math.pi / 2]
     h = np.stack([np.sin(th), np.zeros_like(th), np.cos(th)], -1)
     return tabulated_coeffs(th, np.asarray(brdf.ndf(h), float).reshape(-1), lmax)

@@ -30,21 +30,6 @@ from sgpipe.core.sg import dln_sg_norm
 from sgpipe.errors import BadInput
 
 
-def rotation_matrix(axis, angle_deg: float) -> np.ndarray:
-    """World ← map rotation (3, 3) float64 by `angle_deg` (right-handed) about `axis` (any
-    length > 0): what the map shows in direction d appears in world direction R·d. Multiples
-    of 90° about a coordinate axis come out with exact 0 / ±1 entries."""
-    from sgpipe.core.rotation import axis_angle_matrix
-    axis = np.asarray(axis, np.float64)
-    if axis.shape != (3,) or not np.all(np.isfinite(axis)) or not np.linalg.norm(axis) > 0:
-        raise ValueError(f"rotation axis must be a non-zero 3-vector, got {axis.tolist()}")
-    R = axis_angle_matrix(axis, np.radians(float(angle_deg)))
-    snapped = np.round(R)
-    # cos 90° = 6e-17, not 0: snap entries within rounding of an integer so that quarter turns
-    # permute cube faces exactly (and leave the identity an identity)
-    return np.where(np.abs(R - snapped) < 1e-12, snapped, R) + 0.0
-
-
 def bordered_dirs(n: int, border: int) -> np.ndarray:
     """Unit directions (6·(n+2B), n+2B, 3) of every texel of a "cube6v_bB" level."""
     from sgpipe.core.maps import cubemap_dir

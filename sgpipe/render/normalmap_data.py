@@ -232,7 +232,7 @@ def specular_function(model: str, param: float):
         s = param
         return lambda u: (s + 2.0) / (8.0 * math.pi) * np.maximum(u, 0.0) ** s
     if model == "beckmann":
-        from sgpipe.normalmap.sh import beckmann_ndf
+        from sgpipe.brdf.ndf import beckmann_ndf
         return lambda u: beckmann_ndf(u, param) / 4.0
     if model == "cook_torrance":
         m = param
@@ -243,7 +243,7 @@ def specular_function(model: str, param: float):
 
 def specular_sh_coeffs(model: str, param: float, lmax: int) -> np.ndarray:
     """ρ̂_l = 2π ∫ f(u) P_l(u) du, l ≤ lmax, of `specular_function` (eq 11, quadrature)."""
-    from sgpipe.normalmap.sh import zonal_coeffs
+    from sgpipe.core.sh import zonal_coeffs
     return zonal_coeffs(specular_function(model, param), lmax)
 
 

@@ -27,7 +27,8 @@ import yaml
 from sg_testlib import latlong_dirs_and_weights
 from sgpipe.config import load_config
 from sgpipe.io import write_exr
-from sgpipe.render.envdata import CubeChain, EnvData, GammaChain, rotation_matrix
+from sgpipe.core.rotation import rotation_matrix
+from sgpipe.render.envdata import CubeChain, EnvData, GammaChain
 
 pytestmark = pytest.mark.opencl
 

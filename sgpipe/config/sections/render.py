@@ -91,7 +91,7 @@ class EnvironmentRotationSpec:
         """World ← map rotation (3, 3), or None for a zero angle."""
         if self.angle_deg == 0.0:
             return None
-        from sgpipe.render.envdata import rotation_matrix
+        from sgpipe.core.rotation import rotation_matrix
         return rotation_matrix(self.axis, self.angle_deg)
 
 
