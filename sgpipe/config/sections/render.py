@@ -156,7 +156,8 @@ class RenderSection:
     timing_repeats: int = doc("Warm shading launches per method for the timing (minimum is "
                               "reported).", 3, ge=1, le=100)
     normalmap_max_taps: int = doc(
-        "vmf / normals_mip / toksvig: texture taps along the pixel footprint's longer axis. 1: "
+        "Normal-map methods (vmf, nm_sh, normals_mip, toksvig, engine_bake): texture taps "
+        "along the pixel footprint's longer axis. 1: "
         "isotropic, the MIP level of the longer UV derivative; N > 1: anisotropic, the level of "
         "the shorter one raised until N taps span the longer, their α, α·r and mean normals "
         "averaged before κ and μ are recovered (Han07 eq 24, Fig 3).", 1, ge=1, le=64)
