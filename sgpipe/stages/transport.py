@@ -131,7 +131,8 @@ def _run(cfg, run: StageRun, tmp: Path, geoms, materials) -> None:
            f"{t.indirect_transfer_paths} per occluded texel)" if t.indirect else ""))
     t0 = time.perf_counter()
     results = map_chunks(run_chunk, tasks, workers=cfg.workers or None,
-                         desc="transport: sampling + fitting")
+                         desc="transport: sampling" + (" + indirect paths" if t.indirect
+                                                       else "") + " + fitting")
     wall = time.perf_counter() - t0
     cpu = sum(r.cpu_s for r in results)
     # Gaussians of vertices that have glossy transport (diffuse-only vertices are skipped)
