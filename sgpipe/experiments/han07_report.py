@@ -14,19 +14,26 @@ def _f(v, fmt="{:.2f}"):
 
 
 def _fig2_tables(table: dict, cols: list[str]) -> list[str]:
+    ran = {c for rows in table.values() for cell in rows.values() for c in cell}
+    cols = [c for c in cols if c in ran]                 # the quick run renders fewer
     L = []
     for (map_name, subject), rows in table.items():
         L += [f"### {map_name} on the {subject}", "",
-              "| minification | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
+              "| minification | " + " | ".join(cols) + " | ref. σ / mean |",
+              "|---|" + "---|" * (len(cols) + 1)]
         for m, cell in rows.items():
+            ref = cell.get("reference", {})
+            noise = (f"{ref['stderr'] / ref['mean']:.3f}" if ref.get("stderr") is not None
+                     and ref.get("mean") else "–")
             L.append(f"| {m:g}× | " + " | ".join(
                 f"{_f(cell[c]['psnr'])} / {_f(cell[c]['flip'], '{:.3f}')}"
-                if "psnr" in cell.get(c, {}) else "missing" for c in cols) + " |")
+                if "psnr" in cell.get(c, {}) else "missing" for c in cols) + f" | {noise} |")
         L.append("")
     return L
 
 
-def write_report(path: Path, table, f7, f3, f3r, tg, sheets, cols, missing, *, seconds: float,
+def write_report(path: Path, table, f7, f3, f3r, tg, sheets, cols, missing, *, size: int,
+                 spp: int, seconds: float,
                  quick: bool, command: str) -> Path:
     from sgpipe.experiments import han07 as H
     from sgpipe.experiments import han07_ndf as N
@@ -38,7 +45,7 @@ def write_report(path: Path, table, f7, f3, f3r, tg, sheets, cols, missing, *, s
         L.append(f"| {t['name']} | {t['subject']} | {t['value']} | "
                  f"{'met' if t['met'] else '**not met**'} |")
     L += ["", "## Fig 2 — minification series", "",
-          "Head-on views (a 64² frame of the central 2 × 2 of the 6 × 6 floor, fov "
+          f"Head-on views (a {size}² frame of the central 2 × 2 of the 6 × 6 floor, fov "
           f"{H.PLANE_FOV:g}°; the unit UV sphere from {H.SPHERE_EYE:g} units, fov "
           f"{H.SPHERE_FOV:g}°) with the mesh UVs tiled so that one pixel covers 1, 4, 16 or 64 "
           "texels along the image axis at the image centre (on the sphere more towards the "
@@ -47,8 +54,9 @@ def write_report(path: Path, table, f7, f3, f3r, tg, sheets, cols, missing, *, s
           "pixel, the MIP level from its ray-differential footprint, up to 8 taps along an "
           "anisotropic footprint (`normalmap_max_taps: 8`); `vmfJ` = the vMF method with J "
           "lobes (`normalmap.lobes`). Ground truth: `reference`, the unfiltered map, box pixel "
-          "filter, 512 spp. Cells: display PSNR (dB) / LDR-ꟻLIP over the surface pixels "
-          "(sgpipe.metrics.compare_images).", ""]
+          f"filter, {spp} spp. Cells: display PSNR (dB) / LDR-ꟻLIP over the surface pixels "
+          "(sgpipe.metrics.compare_images); `ref. σ / mean`: the reference's mean per-pixel "
+          "standard error over its mean surface radiance (its Monte Carlo noise).", ""]
     L += _fig2_tables(table, cols)
     if missing:
         L += ["Missing methods (not registered in sgpipe/render/methods.py when this ran): "
@@ -60,7 +68,7 @@ def write_report(path: Path, table, f7, f3, f3r, tg, sheets, cols, missing, *, s
     if errs:
         L.append("")
     for label, rel in sheets:
-        L += [f"![Fig 2 {label}]({rel})  ", f"*Fig 2, {label}*: rows 1×, 4×, 16×, 64×; columns "
+        L += [f"![Fig 2 {label}]({rel})  ", f"*Fig 2, {label}*: one row per minification of the table above; columns "
               "reference, then image and false-colour difference (red brighter, blue darker; "
               "scale shared along a row) for " + ", ".join(cols) + ".", ""]
     L += ["## Fig 7 — one texel's NDF vs lobe count", "",
