@@ -13,7 +13,7 @@ against its J-lobe fit (J = 1…8): band-limited NDF error (l ≤ 8) and the err
 image of its effective Blinn–Phong BRDF (han07_ndf). Fig 3: Lambertian SH (l ≤ 2) per MIP level
 (NDF side) and, when `nm_sh` is registered, a receding plane. Writes contact sheets and PNG plots
 under <out> and the Markdown report (default docs/results/han07.md, sheets beside it in
-docs/results/figures/). A render that fails is reported as missing with its error, never faked.
+docs/results/figures/; `--quick`, a ≤ 60 s smoke run, writes <out>/han07.md instead). A render that fails is reported as missing with its error, never faked.
 """
 
 from __future__ import annotations
@@ -270,13 +270,17 @@ def fig2_sheet(path: Path, rows: dict) -> Path:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("out/figures/han07"))
-    ap.add_argument("--results", type=Path, default=ROOT / "docs" / "results" / "han07.md")
+    ap.add_argument("--results", type=Path, default=None,
+                    help="Markdown report (default docs/results/han07.md; with --quick "
+                         "<out>/han07.md, so that a smoke run never replaces the figures).")
     ap.add_argument("--quick", action="store_true",
                     help="Smoke run (≤ 60 s): grooves plane at 16× only, 32², 64 spp; Fig 7 on "
                          "one cell.")
     a = ap.parse_args(argv)
     t0 = time.perf_counter()
     a.out.mkdir(parents=True, exist_ok=True)
+    if a.results is None:
+        a.results = a.out / "han07.md" if a.quick else ROOT / "docs" / "results" / "han07.md"
 
     def log(msg):
         print(msg, file=sys.stderr, flush=True)
