@@ -5,7 +5,8 @@
  * derivation: sgpipe/core/asg.py (asg_sublobes).
  * Lobe table (sgpipe/render/materials.py): after a material's NLOBES SG lobes one header pair
  * (0, 0, 0, 0), (0, 0, 0, n_asg), then n_asg pairs (z, λ), (c, μ, φ, 0) with x = cos φ u + sin φ v,
- * (u, v) = basis_around(z). Defines: ASG_MAX_HALF (sub-lobes per side, default 32). */
+ * (u, v) = basis_around(z). Defines: ASG_MAX_HALF (nodes per side, default 32; a lobe that needs
+ * more gets its nodes spread over the same ±3σ and each sub-lobe widened to half the spacing). */
 #ifndef SGPIPE_ASG_H
 #define SGPIPE_ASG_H
 
