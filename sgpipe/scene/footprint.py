@@ -6,8 +6,8 @@ log2(max footprint in texels).
     duv = uv_derivatives(cam, gb, offset=(0.5, 0.5), step=1.0)   # (H, W, 4) float32
     lod = mip_level(duv, side=256)                                 # (H, W) float
 
-The neighbouring rays are intersected with the tangent plane of the hit (geometric normal) —
-the first-order differential — and the plane offsets mapped to UV by the triangle's UV gradient
+The rays half a step either side are intersected with the tangent plane of the hit
+(geometric normal) — the first-order differential, as a central difference — and the plane offsets mapped to UV by the triangle's UV gradient
 (meshes) or by the sphere's lat-long mapping (analytic spheres, u wrapped)."""
 
 from __future__ import annotations
@@ -68,8 +68,12 @@ def uv_derivatives(cam, gb, offset=(0.5, 0.5), step: float = 1.0) -> np.ndarray:
     rows, cols = np.unravel_index(idx, shape)
     px, py = cols + offset[0], rows + offset[1]
     sel = {"pos": gb.position.reshape(-1, 3)[idx], "ng": gb.geo_normal.reshape(-1, 3)[idx]}
-    dpx = _plane_offsets(cam, sel, px, py, step, 0.0)
-    dpy = _plane_offsets(cam, sel, px, py, 0.0, step)
+    # central differences (rays ± step/2): second-order accurate, where the one-sided step
+    # was off by up to 7 % at oblique views of the analytic sphere (the projective map and the
+    # lat-long map curve over one pixel)
+    h = 0.5 * step
+    dpx = (_plane_offsets(cam, sel, px, py, h, 0.0), _plane_offsets(cam, sel, px, py, -h, 0.0))
+    dpy = (_plane_offsets(cam, sel, px, py, 0.0, h), _plane_offsets(cam, sel, px, py, 0.0, -h))
     obj_id = gb.object_id.reshape(-1)[idx]
     tri = gb.triangle_id.reshape(-1)[idx]
     res = np.zeros((len(idx), 4))
@@ -79,15 +83,14 @@ def uv_derivatives(cam, gb, offset=(0.5, 0.5), step: float = 1.0) -> np.ndarray:
             continue
         if ob.kind == "sphere":
             p = np.asarray(sel["pos"][s], float)
-            uv0 = _sphere_uv(ob, p)
-            for c, dp in ((0, dpx[s]), (2, dpy[s])):
-                duv = _sphere_uv(ob, p + dp) - uv0
+            for c, (dp, dm) in ((0, dpx), (2, dpy)):
+                duv = _sphere_uv(ob, p + dp[s]) - _sphere_uv(ob, p + dm[s])
                 duv[:, 0] -= np.round(duv[:, 0])      # u wraps at φ = 0
                 res[s, c:c + 2] = duv
         elif ob.uvs is not None:
             g = _mesh_uv_gradient(ob, tri[s])
-            res[s, 0:2] = np.einsum("nij,nj->ni", g, dpx[s])
-            res[s, 2:4] = np.einsum("nij,nj->ni", g, dpy[s])
+            res[s, 0:2] = np.einsum("nij,nj->ni", g, dpx[0][s] - dpx[1][s])
+            res[s, 2:4] = np.einsum("nij,nj->ni", g, dpy[0][s] - dpy[1][s])
     out[idx] = res
     return out.reshape(shape + (4,))
 

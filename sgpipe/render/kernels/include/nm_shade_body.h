@@ -104,6 +104,17 @@
     int nlob = 0;
     float bnorm = 0.25f * (s + 2.0f) / (s + 1.0f) * NM_INV_2PI;   /* × (s′ + 1): eq 20 */
 #if NM_FILTER == NM_VMF
+    /* Diffuse: level 0's part (weight 1 − f) at its unit bilinear normals — the first n0l
+     * lobes, as the reference and normals_mip read the map: the plain bilinear mean is shorter
+     * (0.8 at the grooves' kinks) and darkened vmf against both — and the coarser part
+     * f·n̄₁ (linear in the NDF, eq 5) as the plain mean. */
+    int n0l = 0;
+    float3 mean1 = mean;
+    if (info.w && at0) {
+        float3 s0 = (float3)(0.0f);
+        for (int k = 0; k < n0c; ++k) s0 += n0s[k].yzw;
+        mean1 = to_world(mean_t - (1.0f - f) * s0 / (float)ntap, T, B, N);
+    }
     if (!info.w) {
         ax[0] = N; lp[0] = (float4)(1.0f, s, bnorm * (s + 1.0f), s); la[0] = 1.0f; nlob = 1;
     } else {
@@ -116,6 +127,7 @@
             la[nlob] = 1.0f;
             ++nlob;
         }
+        n0l = nlob;
         for (int j = 0; j < nl; ++j) {
             float4 t = lob[j];
             if (t.x <= 0.0f) continue;
@@ -239,7 +251,8 @@
 #endif
         {
 #if NM_FILTER == NM_VMF
-            diff = fmax(dot(mean, i), 0.0f);
+            diff = fmax(dot(mean1, i), 0.0f);
+            for (int j = 0; j < n0l; ++j) diff += lp[j].x * fmax(dot(ax[j], i), 0.0f);
 #else
             diff = fmax(dot(nbar, i), 0.0f);
 #endif
