@@ -133,7 +133,11 @@ def _reference_pixel(method, pyr, mean, uv, duv, view, taps=1):
         if i[2] <= 0:
             continue
         if method == "vmf":
-            diff = max(mn @ i, 0.0)
+            # diffuse: level 0's part at its unit bilinear normals, the coarser part the mean
+            l0 = _level0(mean, pts, lod)
+            m1 = mn - sum(w * bilinear(mean[0].astype(np.float64), float(p[0]), float(p[1]))
+                          for (w, _), p in zip(l0, pts)) if l0 else mn
+            diff = max(m1 @ i, 0.0) + sum(w * max(n0 @ i, 0.0) for w, n0 in l0)
             spec = 0.0
             for a, m, k in zip(al, mu, ka):
                 if a <= 0 or k <= 0:
