@@ -118,3 +118,13 @@ def test_default_kernel_uses_the_half_vector_warp(shaded):
     r = Renderer(env=env, materials=pack_materials([_material()]), objects=[ObjectShading(0)])
     img = r.shade("gmm", _frame(_sweeps()), flags=KernelFlag.NO_VISIBILITY)[:, 0]
     np.testing.assert_allclose(img, shaded[1][2], rtol=1e-6)
+
+
+@pytest.mark.parametrize("carry, mode", [("none", 0), ("rotate", 1), ("warp", 2)])
+def test_render_gmm_carry_key_selects_the_mode(shaded, carry, mode):
+    """`render.gmm_carry` (Renderer(gmm_carry=…)): none = Töral19's nearest view as fitted."""
+    env, _ = linear_env(c0=1.0, g=(0.5, 0.3, -0.2), face_res=64)
+    r = Renderer(env=env, materials=pack_materials([_material()]), objects=[ObjectShading(0)],
+                 gmm_carry=carry)
+    img = r.shade("gmm", _frame(_sweeps()), flags=KernelFlag.NO_VISIBILITY)[:, 0]
+    np.testing.assert_allclose(img, shaded[1][mode], rtol=1e-6)
