@@ -57,9 +57,11 @@ validate: setup $(VALIDATE_STAMP)
 	@bash tools/ensure_llvm.sh
 	$(PY) -m validation --out $(OUT)/validate
 
-## Töral19's experiment: docs/RESULTS.md and contact sheets
+## the papers' experiments: Töral19 (docs/RESULTS.md), Han07 and Green06 (docs/results/), sheets
 figures: setup
 	$(PY) -m sgpipe.experiments.figures --out $(OUT)/figures
+	$(PY) -m sgpipe.experiments.han07 --out $(OUT)/figures/han07
+	$(PY) -m sgpipe.experiments.green06 --out $(OUT)/figures/green06 --results docs/results/green06.md
 
 ## regenerate data_samples/ (deterministic)
 samples: $(STAMP)

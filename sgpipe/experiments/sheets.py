@@ -185,6 +185,11 @@ def write_results_md(path: Path, per_env: dict, mats: list[dict], methods, sheet
         L.append(f"![{env} {fam}]({rel})  ")
         L.append(f"*{env}, {fam}* — `{rel}`")
         L.append("")
+    L += ["## The other papers' experiments", "",
+          "Written by the same `make figures`: [Han07 — Fig 2, 3, 7 and the normal-map "
+          "targets](results/han07.md) (`python -m sgpipe.experiments.han07`), [Green06 — Fig 5, "
+          "6, 7, the §6.1 storage and timing table](results/green06.md) "
+          "(`python -m sgpipe.experiments.green06`).", ""]
     if missing:
         L += ["## Missing methods", ""]
         for (env, k), why in sorted(missing.items()):
