@@ -122,13 +122,14 @@ class Renderer:
     def __init__(self, *, env: EnvData, materials: MaterialTable, objects: list[ObjectShading],
                  textures: Textures | None = None, lights: list[Light] = (),
                  env_scale: float = 1.0, nv: int | None = None, fh_mode: str = "table",
-                 gmm_taps: int = 16):
+                 gmm_taps: int = 16, gmm_carry: str = "warp"):
         self.ctx, self.queue = opencl.get_context()
         self.env, self.materials, self.objects = env, materials, list(objects)
         self.env_scale = float(env_scale)
         self.headers = kernel_headers(fh_mode)
         self.fh_mode = fh_mode
         self.gmm_taps = int(gmm_taps)
+        self.gmm_carry = {"none": 0, "rotate": 1, "warp": 2}[gmm_carry]   # GMM_ROTATE
         vis = [o.vis for o in self.objects if o.vis is not None]
         nv = int(nv if nv is not None else max([v.coeffs.shape[1] for v in vis] or [0]))
         self.nv = -(-nv // 4) * 4          # kernels read the PCA terms as float4
@@ -217,7 +218,7 @@ class Renderer:
             d["FH_TABLE"] = 1
         per_scene = {"MAX_NDF_LOBES": max(1, self.materials.max_lobes),
                      "MAX_GMM_LOBES": max(1, self.materials.max_gmm_lobes),
-                     "GMM_TAPS": max(1, self.gmm_taps)}
+                     "GMM_TAPS": max(1, self.gmm_taps), "GMM_ROTATE": self.gmm_carry}
         d.update({k: per_scene[k] for k in METHODS[method].defines})
         d.update(self.env.rotation_defines())     # render.environment_rotation (cubemap.h)
         return d

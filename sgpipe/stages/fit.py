@@ -109,14 +109,10 @@ def write_ndf_sg(run, name: str, brdf, spec, seed: int) -> dict:
         empty = NdfSG(np.zeros((0, 3)), np.zeros(0), np.zeros(0), "none", 0.0)
         artifacts.write_ndf_sg(run, name, empty.arrays())
         return {"lobes": 0, "method": "none"}
-    lobes = spec.lobes or (1 if ndf.isotropic and ndf.sg_analytic() is not None
-                           else (2 if ndf.isotropic else 8))
-    sg = fit_ndf_sg(ndf, method=spec.method, n_lobes=lobes, seed=seed)
-    if spec.method == "auto" and not spec.lobes and sg.method == "analytic" and sg.rel_l2 > 0.05:
-        lobes = 2                      # heavy tails (GGX): one Taylor lobe is not enough
-        sg = fit_ndf_sg(ndf, method="lm", n_lobes=lobes, seed=seed)
+    sg = fit_ndf_sg(ndf, method=spec.method, n_lobes=spec.lobes, seed=seed)  # 0: auto_ndf_sg
+    lobes = int(sg.axis.shape[0])
     artifacts.write_ndf_sg(run, name, sg.arrays())
-    rep = {"lobes": lobes, "method": sg.method, "rel_l2": sg.rel_l2,
+    rep = {"lobes": lobes, "method": sg.method, "rel_l2": sg.rel_l2, "area_err": sg.area_err,
            "sharpness": sg.sharpness, "amplitude": sg.amplitude, "axis": sg.axis}
     an = analytic_ndf_sg(ndf)
     if an is not None:
@@ -136,10 +132,11 @@ def write_ndf_sg(run, name: str, brdf, spec, seed: int) -> dict:
 def write_view_gmm(run, name: str, brdf, spec, seed: int, ndf_rep: dict) -> dict:
     """view_gmm.npz + view_gmm.exr, error curve and slice previews, interpolation errors."""
     include_diffuse = spec.component == "full" or not brdf.has_specular
-    n_phi = spec.phi_count or (1 if brdf.isotropic else 8)
+    n_phi = spec.phi_count or (1 if brdf.isotropic else 16)
     kw = dict(n_theta=spec.theta_count, n_phi=n_phi, theta_max=np.radians(spec.theta_max_deg),
               n_lobes=spec.lobes, n_samples=spec.samples, max_iter=spec.iterations,
-              tol=spec.tolerance, align=spec.align, seed=seed, include_diffuse=include_diffuse)
+              tol=spec.tolerance, align=spec.align, seed=seed, include_diffuse=include_diffuse,
+              anisotropic_lobes=spec.anisotropic_lobes)
     gmm = fit_view_gmm(brdf, coherent=spec.coherent, **kw)
     artifacts.write_view_gmm(run, name, gmm.arrays(),
                              view_theta_max=np.radians(spec.theta_max_deg))

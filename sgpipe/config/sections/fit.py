@@ -41,8 +41,10 @@ class NdfSGSpec:
         "auto: analytic (eq 12 and equivalents) for isotropic parametric NDFs, "
         "Levenberg–Marquardt about +z for tabulated ones, L-BFGS-B with free axes for "
         "anisotropic ones.", "auto")
-    lobes: int = doc("Lobes (0 = auto: 1 analytic — 2 LM lobes if its error exceeds 5 %, e.g. "
-                     "GGX tails —, 2 tabulated, 8 anisotropic).", 0, ge=0, le=16)
+    lobes: int = doc("Lobes (0 = auto: Wang09's analytic lobe where it is within 1 % relative "
+                     "L2 of D and 2 % of ∫D cos θ, else the fewest Levenberg–Marquardt lobes "
+                     "that are (≤ 6; GGX 3–4); 8 free-axis lobes for anisotropic NDFs).", 0,
+                     ge=0, le=16)
     report_lobes: int = doc("Largest lobe count of the error-vs-lobes report (0 = none).", 4,
                             ge=0, le=16)
     anisotropic: Literal["asg", "sg"] = doc(
@@ -61,12 +63,14 @@ class ViewGmmSpec:
 
     enabled: bool = doc("Fit the per-view mixtures.", True)
     lobes: int = doc("vMF lobes per view (paper: 8).", 8, ge=1, le=32)
+    anisotropic_lobes: int = doc("vMF lobes per view for anisotropic BRDFs (0: `lobes`): an r:1 "
+                                 "lobe needs a chain of about r/2 round vMFs.", 24, ge=0, le=32)
     samples: int = doc("Importance samples per view.", 4096, ge=64, le=1 << 20)
     iterations: int = doc("Maximum EM iterations per fit.", 100, ge=1, le=10000)
     tolerance: float = doc("EM stops when the log-likelihood changes less than this "
                            "(relative).", 1e-5, ge=0)
     theta_count: int = doc("View elevations θ_t = θ_max t/(count−1).", 16, ge=2, le=256)
-    phi_count: int = doc("View azimuths (0 = auto: 1 for isotropic, 8 for anisotropic).", 0,
+    phi_count: int = doc("View azimuths (0 = auto: 1 for isotropic, 16 for anisotropic).", 0,
                          ge=0, le=256)
     theta_max_deg: float = doc("Largest view elevation (degrees).", 85.0, gt=0, le=89.9)
     component: Literal["specular", "full"] = doc(

@@ -143,6 +143,10 @@ class RenderSection:
                         le=64)
     gmm_interpolate: bool = doc("gmm: interpolate lobes between fitted views when the fit is "
                                 "coherent (else nearest view).", True)
+    gmm_carry: Literal["warp", "rotate", "none"] = doc(
+        "gmm: how a fitted view's lobes reach the pixel's view. warp: through each lobe's half "
+        "vector (the NDF stays put; anisotropic lobes keep their orientation); rotate: rigidly "
+        "with the mirror direction; none: Töral19's nearest view as fitted.", "warp")
     baseline_shadows: bool = doc("gmm/fis: apply the SSDF visibility as sg does (the papers' "
                                  "baselines are unshadowed; false reproduces that).", True)
     fh: Literal["table", "sigmoid"] = doc(
