@@ -16,7 +16,7 @@ import sgpipe
 from sgpipe.artifacts import envmap as env_art
 from sgpipe.artifacts import visibility as vis_art
 from sgpipe.errors import BadInput
-from sgpipe.export import dds, green06, gltf, ktx2, normalmaps, prefilter, sh9
+from sgpipe.export import dds, env_rotation, green06, gltf, ktx2, normalmaps, prefilter, sh9
 from sgpipe.io.atomic import atomic_folder, file_hash
 
 MARKER = ".sgpipe-export"           # marks a folder this command wrote (safe to replace)
@@ -116,6 +116,10 @@ def build(run_dir: Path, staging: Path, fmt: ktx2.KtxFormat, size: int | None) -
                        file=env / env_art.RAW_LEVEL, key=env_art.KEY)
     pyr = load_pyramid(env)
     sh = sh9.sh9_document(env)
+    rot, rot_spec, rot_file = env_rotation.read_rotation(run_dir)
+    light_irradiance = np.asarray(sh["irradiance"])     # the light's: map space, like its images
+    if rot is not None:
+        sh = env_rotation.rotate_sh9_document(sh, rot, rot_spec)
     objects = load_objects(run_dir / "visibility")
     transport = green06.load_transport(run_dir / "transport")
     source_res = arts.raw.shape[1] - 2 * env_art.SAMPLE_BORDER
@@ -148,13 +152,23 @@ def build(run_dir: Path, staging: Path, fmt: ktx2.KtxFormat, size: int | None) -
             write_png(staging / uri, gltf.face_image(lv.faces[f]), already_8bit=True)
             row.append(uri)
         uris.append(row)
-    doc, blob = gltf.build_gltf(objects, irradiance=np.asarray(sh["irradiance"]),
+    doc, blob = gltf.build_gltf(objects, irradiance=light_irradiance,
                                 specular_uris=uris, specular_size=size, bin_uri=BIN_FILE,
-                                transport=transport)
+                                transport=transport, rotation=rot)
     (staging / BIN_FILE).write_bytes(blob)
     (staging / GLTF_FILE).write_text(doc.to_json(indent=1) + "\n")
     normal_maps = normalmaps.export_normal_maps(run_dir / "normalmap", staging)
-    return {"sgpipe_version": sgpipe.__version__, "run_dir_inputs": _inputs(run_dir),
+    inputs = _inputs(run_dir)
+    extra = {}
+    if rot is not None:     # only then: an unturned export stays byte-identical
+        inputs[rot_file.relative_to(run_dir).as_posix()] = file_hash(rot_file)
+        extra["environment_rotation"] = {
+            **rot_spec, "matrix": rot.tolist(), "config": rot_file.relative_to(run_dir).as_posix(),
+            "carried_by": ["scene.gltf: EXT_lights_image_based rotation (quaternion of R)",
+                           f"{SH9_FILE}: irradiance / radiance of the turned environment"],
+            "map_space": [KTX2_FILE, DDS_FILE, "ibl/*.png",
+                          "scene.gltf: irradianceCoefficients (turned by the light's rotation)"]}
+    return {**extra, "sgpipe_version": sgpipe.__version__, "run_dir_inputs": inputs,
             "ktx2": {"file": KTX2_FILE, "vk_format": fmt.name, "levels": len(levels),
                      "roughness_mapping": ROUGHNESS_TEXT},
             "dds": {"file": DDS_FILE, "dxgi_format": "R16G16B16A16_FLOAT",

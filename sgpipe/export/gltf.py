@@ -145,9 +145,12 @@ def _green06_mesh(b: _Builder, t) -> gl.Mesh:
 
 def build_gltf(objects: list[VertexObject], *, irradiance: np.ndarray,
                specular_uris: list[list[str]], specular_size: int,
-               bin_uri: str, transport: list | None = None) -> tuple[gl.GLTF2, bytes]:
+               bin_uri: str, transport: list | None = None,
+               rotation: np.ndarray | None = None) -> tuple[gl.GLTF2, bytes]:
     """The glTF document and its binary buffer: one node per object (a transport object whose
-    vertices are a visibility object's shares its mesh), a scene with the IBL."""
+    vertices are a visibility object's shares its mesh), a scene with the IBL. `rotation`
+    (world ← map, render.environment_rotation) becomes the light's `rotation`; `irradiance`
+    and the specular images are in map space (the runtime turns them by it)."""
     doc = gl.GLTF2(asset=gl.Asset(version="2.0", generator="sgpipe export"))
     b = _Builder(doc)
     for obj in objects:
@@ -170,10 +173,16 @@ def build_gltf(objects: list[VertexObject], *, irradiance: np.ndarray,
         ids.append(list(range(k, k + len(row))))
         k += len(row)
     doc.extensionsUsed = [EXTENSION]
-    doc.extensions = {EXTENSION: {"lights": [{
-        "name": "environment", "intensity": 1.0, "rotation": [0.0, 0.0, 0.0, 1.0],
-        "irradianceCoefficients": np.asarray(irradiance, float).reshape(9, 3).tolist(),
-        "specularImageSize": int(specular_size), "specularImages": ids}]}}
+    light = {"name": "environment", "intensity": 1.0, "rotation": [0.0, 0.0, 0.0, 1.0],
+             "irradianceCoefficients": np.asarray(irradiance, float).reshape(9, 3).tolist(),
+             "specularImageSize": int(specular_size), "specularImages": ids}
+    if rotation is not None:
+        from sgpipe.export.env_rotation import gltf_quaternion, rotate_sh9
+        light["rotation"] = gltf_quaternion(rotation)
+        # for runtimes that ignore `rotation`: the coefficients already turned (world frame)
+        light["extras"] = {"sgpipe_world_irradiance": rotate_sh9(
+            light["irradianceCoefficients"], rotation).tolist()}
+    doc.extensions = {EXTENSION: {"lights": [light]}}
     doc.scenes.append(gl.Scene(nodes=list(range(len(doc.nodes))),
                                extensions={EXTENSION: {"light": 0}}))
     doc.scene = 0
