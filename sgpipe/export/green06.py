@@ -33,6 +33,8 @@ class TransportObject:
     sh_transfer: np.ndarray     # (X, 25)
     diffuse_rgb: np.ndarray     # (3,)
     gaussians: int
+    # (X, 25, 3) shadowed + interreflected transfer; None when the interreflected part is zero
+    sh_transfer_rgb: np.ndarray | None = None
 
 
 def load_transport(tr_dir: Path) -> list[TransportObject]:
@@ -47,9 +49,12 @@ def load_transport(tr_dir: Path) -> list[TransportObject]:
             "stored_mask", "weight_mask", "dirs", "sigma_code", "weights", "weight_scale",
             "sigma_range"))
         sh, diffuse = tr_art.read_sh_transfer(tr_dir, d.name)
+        full, _ = tr_art.read_sh_transfer_rgb(tr_dir, d.name)
+        # shadowed + 0 is the shadowed transfer bit for bit: any difference is interreflection
+        rgb = full if np.any(full != np.asarray(sh, np.float32)[..., None]) else None
         out.append(TransportObject(d.name, np.asarray(g["positions"]), np.asarray(g["normals"]),
                                    np.asarray(g["faces"]), dict(packed), np.asarray(sh),
-                                   np.asarray(diffuse), int(packed["dirs"].shape[1])))
+                                   np.asarray(diffuse), int(packed["dirs"].shape[1]), rgb))
     return out
 
 
@@ -80,16 +85,29 @@ def vertex_attributes(t: TransportObject) -> dict[str, tuple[np.ndarray, str]]:
 def tables(t: TransportObject) -> dict[str, tuple[np.ndarray, str]]:
     """{table name: (array (rows, c), glTF type)}: views (92, 3), lobe mean octahedral
     uint16 (R·K, 2), σ codes uint8 (R·K, 1), RGB weights float32 (A·K, 3; the stored halves
-    converted exactly)."""
-    return {"views": (view_set()[0].astype(np.float32), "VEC3"),
+    converted exactly); with interreflection also transfer_rgb float32 (X·25, 3): entry
+    x·25 + k is coefficient k of vertex x, RGB."""
+    out = {"views": (view_set()[0].astype(np.float32), "VEC3"),
             "dirs": (np.asarray(t.packed["dirs"], np.uint16).reshape(-1, 2), "VEC2"),
             "sigma_code": (np.asarray(t.packed["sigma_code"], np.uint8).reshape(-1, 1),
                            "SCALAR"),
             "weights": (np.asarray(t.packed["weights"], np.float32).reshape(-1, 3), "VEC3")}
+    if t.sh_transfer_rgb is not None:   # 75 floats a vertex: too many for attributes
+        out["transfer_rgb"] = (np.asarray(t.sh_transfer_rgb, np.float32).reshape(-1, 3), "VEC3")
+    return out
+
+
+TRANSFER_RGB_TEXT = (
+    "transfer_rgb (present when the transport stage computed interreflection): the full "
+    "transfer, shadowed + interreflected, per colour channel; coefficient k of vertex x (its "
+    "index in this primitive's vertex order) is transfer_rgb[x*25 + k] (RGB); diffuse "
+    "radiance_c = diffuse_rgb_c * sum_k L_k,c transfer_rgb[x*25 + k]_c, replacing "
+    "_SH_TRANSFER (which stays the shadowed part alone)")
 
 
 def extras(t: TransportObject, table_accessors: dict[str, int]) -> dict:
     lo, hi = (float(v) for v in np.asarray(t.packed["sigma_range"]).reshape(-1)[:2])
+    rgb = {} if t.sh_transfer_rgb is None else {"transfer_rgb_decode": TRANSFER_RGB_TEXT}
     return {"gaussians": t.gaussians, "views": N_VIEWS, "sigma_range": [lo, hi],
             "diffuse_rgb": [float(v) for v in t.diffuse_rgb],
             **{f"{name}_accessor": i for name, i in table_accessors.items()},
@@ -102,4 +120,4 @@ def extras(t: TransportObject, table_accessors: dict[str, int]) -> dict:
                       "_G06_SCALE; G(l; mu, sigma) = exp((l.mu - 1)/sigma^2) for a light "
                       "direction l; views: the 92 view directions (world frame, Green06's "
                       "global frame); diffuse radiance = diffuse_rgb * sum_k L_k "
-                      "_SH_TRANSFER[k] (world-frame real SH, sgpipe.core.sh order)"}
+                      "_SH_TRANSFER[k] (world-frame real SH, sgpipe.core.sh order)"} | rgb
