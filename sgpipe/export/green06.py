@@ -6,7 +6,8 @@ Per vertex (attributes, docs/EXPORT.md): `_SH_TRANSFER0…6` (25 SH coefficients
 `_G06_WROW` (first row of the vertex in the lobe / weight tables), `_G06_SCALE` (the weights'
 scale). Tables (accessors named in the mesh's extras): the 92 view directions, per stored
 (vertex, view) row and Gaussian k the octahedral mean and σ code, per weighted row the RGB
-weights. A view's Gaussians: G(ω; μ, σ) = exp((ω·μ − 1)/σ²) (Green06 eq 4, peak 1).
+weights; with interreflection the full RGB transfer (X·25 VEC3, `transfer_rgb`). A view's
+Gaussians: G(ω; μ, σ) = exp((ω·μ − 1)/σ²) (Green06 eq 4, peak 1).
 """
 
 from __future__ import annotations
