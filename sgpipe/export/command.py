@@ -23,7 +23,9 @@ def export(run_dir, out_dir, fmt, size):
     (roughness = level / (levels - 1)), SH9 irradiance as JSON, a glTF with an
     EXT_lights_image_based light and the SSDF PCA coefficients (and Green06 transport) as
     vertex attributes, and the normalmap stage's vMF / roughness MIP chains as 2-D KTX2 and
-    DDS textures. docs/EXPORT.md describes every file."""
+    DDS textures. A render.environment_rotation in the run's resolved config turns the glTF
+    light (its rotation) and the SH9 JSON; the cubemaps stay in map space. docs/EXPORT.md
+    describes every file."""
     from sgpipe.export.bundle import write_export
     out = write_export(run_dir, out_dir, fmt=fmt, size=size)
     click.echo(f"export: {out}")
