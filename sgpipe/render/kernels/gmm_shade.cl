@@ -4,6 +4,8 @@
  * is coherent — and each lobe is integrated against the environment by a lobe-sized lookup
  * of the box MIP chain (eq 6–10, cube distortion; gmm_lobe_integral):
  *   L_o ≈ Σ_k α_k · L̄(μ_k, κ_k) [· f̂_h(θ_d(μ_k), κ_k) with baseline shadows].
+ * With render.gmm_points the environment's bright point set (sun, lamps) is summed exactly,
+ * Σ_p E_p vMF(p; μ_k, κ_k), and gmm_mip holds the map without it (else gmm_mip = the whole map).
  * Diffuse not inside the lobes (includes_diffuse = 0), and purely diffuse materials, use the SG
  * light fit (Wang09 eq 39); local lights use the mixture itself: ρ cos ≈ Σ α vMF(l) times the irradiance.
  * Defines: NV, FH_*, MAX_GMM_LOBES; optional GMM_TAPS, GMM_TAP_C, GMM_ROTATE, GMM_VIEW_BLEND. */
@@ -90,6 +92,14 @@ inline float3 gmm_lobe_integral(__global const float4 *mip, __global const int *
     }
     return acc * (1.0f / (float)GMM_TAPS);
 #endif
+}
+
+/* ∫ vMF(ω; a, κ) L_pts(ω) dω of the point set kept out of gmm_mip (records (c_k, 0), (E_k, 0),
+ * world directions; n = 0 with render.gmm_points off): Σ_k E_k vMF(c_k; a, κ), exact for point
+ * masses, vMF(ω) = κ/(2π(1 − e^{−2κ})) e^{κ(a·ω − 1)} (Töral19 eq 2). */
+inline float3 gmm_points_integral(__global const float4 *pts, int n, float3 a, float kappa) {
+    if (n <= 0) return (float3)(0.0f);
+    return vmf_to_sg_mu(kappa) * gamma_points(pts, n, a, kappa);
 }
 
 /* Carry lobe (axis, κ) fitted at view og to view op through its half vector h = (a + og)/‖·‖
@@ -197,7 +207,9 @@ __kernel void gmm_shade(GMM_SHADE_ARGS)
                                                           : fh_hat(vis_theta(&vis, ag), kappa);
                 if (!(flags & FLAG_NO_ENV_SPECULAR))
                     col += alpha * scale * vis_f * env_scale
-                           * gmm_lobe_integral(mip, mip_off, mip_res, mip_n, aw, kappa, coverage);
+                           * (gmm_lobe_integral(gmm_mip, mip_off, mip_res, mip_n, aw, kappa,
+                                                coverage)
+                              + gmm_points_integral(pyr_pts, n_gmm_pts, aw, kappa));
                 for (int l = 0; l < n_lights; ++l) {
                     SG Lw = light_sg(lights[2 * l], lights[2 * l + 1], x);
                     float3 lg = to_local(Lw.p, T, B, N);
