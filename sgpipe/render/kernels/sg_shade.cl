@@ -135,7 +135,9 @@ __kernel void sg_shade(SG_SHADE_ARGS)
             SG s = spec_cosine(w);
             w.p = quat_rotate(q, w.p);
             s.p = quat_rotate(q, s.p);
-            /* Environment (eq 41): ⊗ V^d (eq 31), rotate to world, Γ_L lookup (eq 35). */
+            /* Environment (eq 41): ⊗ V^d (eq 31), rotate to world, Γ_L lookup (eq 35); the
+             * point set's Gaussians below e^{−16} skipped (asg_points): a sharp sub-lobe sees
+             * few points, and one exp per point and sub-lobe is as dear as the lookup. */
             if (!(flags & FLAG_NO_ENV_SPECULAR)) {
                 float el = asin(clamp(s.p.z, -1.0f, 1.0f));
                 if (k == 0) { th0 = vis_theta(&vis, s.p); el0 = el; }
@@ -145,7 +147,7 @@ __kernel void sg_shade(SG_SHADE_ARGS)
                 rs += sv.mu * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam,
                                                             pyr_n, pyr_log_ratio, env_mean.xyz,
                                                             pyr_raw, raw_n, pw, sv.lam)
-                                           + gamma_points(pyr_pts, n_pts, pw, sv.lam));
+                                           + asg_points(pyr_pts, n_pts, pw, sv.lam));
             }
             /* Local lights (eq 43). */
             for (int l = 0; l < n_lights; ++l) {

@@ -15,9 +15,10 @@
 #ifndef ASG_MAX_HALF
 #define ASG_MAX_HALF 32
 #endif
-#define ASG_SPACING 1.75f   /* node spacing in sub-lobe σ (ripple ≈ 0.3 %) */
+#define ASG_SPACING 2.0f    /* node spacing in sub-lobe σ (ripple ≤ 1.4 % against a point;
+                              * core/asg.py KERNEL_SPACING_SIGMAS) */
 #define ASG_FLOOR 2.0f      /* σ ≥ spacing / 2 once the node count is capped */
-#define ASG_RANGE 3.0f      /* nodes span ±3 σ of the broad axis */
+#define ASG_RANGE 3.0f      /* nodes span ±3 σ of the broad axis (2.5: −0.5 dB on a sun) */
 
 typedef struct {
     float3 z, x, o, uh;
@@ -141,6 +142,21 @@ inline int asg_sublobe(const ASGPlan *p, int idx, SG *out) {
     *out = sg_make(2.0f * og * h - p->o, kap,
                    (float3)(4.0f * og * p->mass * w / sg_integral_unit(kap)));
     return 1;
+}
+
+/* gamma_points (cubemap.h) skipping points whose Gaussian factor is below e^{-ASG_POINT_CUT}:
+ * a chain of many sharp sub-lobes sees few of the environment's points, and the exp dominates. */
+#ifndef ASG_POINT_CUT
+#define ASG_POINT_CUT 16.0f
+#endif
+inline float3 asg_points(__global const float4 *pts, int n, float3 p, float lambda) {
+    float3 acc = (float3)(0.0f);
+    for (int k = 0; k < n; ++k) {
+        float3 d = pts[2 * k].xyz - p;
+        float q = 0.5f * lambda * dot(d, d);
+        if (q < ASG_POINT_CUT) acc += pts[2 * k + 1].xyz * exp(-q);
+    }
+    return acc;
 }
 
 #endif
