@@ -109,15 +109,15 @@ def test_x_angle_round_trip():
     (400.0, 25.0, 0, 0), (400.0, 25.0, 60, 45), (1e4, 25.0, 30, 45), (2000.0, 10.0, 20, 30),
     (25.0, 400.0, 45, 10)])
 def test_kernel_sublobe_set_integrates_like_the_dense_set(sphere, lam, mu, th, ph):
-    """The kernel's sparser chain (KERNEL_SPACING_SIGMAS over ±KERNEL_RANGE_SIGMAS) against the
-    dense one: the same integral against a smooth environment within 1 % (measured ≤ 0.35 %),
+    """The kernel's sparser chain (KERNEL_SPACING_SIGMAS over ±KERNEL_RANGE_SIGMAS, pairs merged
+    beyond KERNEL_MERGE_FROM) against the dense one: the same integral against a smooth environment within 1 % (measured ≤ 0.35 %),
     the mass conserved, and fewer sub-lobes wherever the chain is long (> 9 dense nodes)."""
-    from sgpipe.core.asg import KERNEL_RANGE_SIGMAS, KERNEL_SPACING_SIGMAS
+    from sgpipe.core.asg import KERNEL_MERGE_FROM, KERNEL_RANGE_SIGMAS, KERNEL_SPACING_SIGMAS
     d, w = sphere
     o = _view(th, ph)
     dense = asg_sublobes(o, Z, X, lam, mu, 1.3)
     kern = asg_sublobes(o, Z, X, lam, mu, 1.3, spacing=KERNEL_SPACING_SIGMAS,
-                        range_sigmas=KERNEL_RANGE_SIGMAS)
+                        range_sigmas=KERNEL_RANGE_SIGMAS, merge_from=KERNEL_MERGE_FROM)
     env = 1.0 + 0.5 * d @ np.array([0.3, -0.4, 0.5]) + 0.3 * (d @ np.array([0.6, 0.0, 0.8])) ** 2
     ref = np.sum(w * dense.eval(d) * env)
     assert np.sum(w * kern.eval(d) * env) == pytest.approx(ref, rel=0.01)

@@ -6,7 +6,9 @@
  * Lobe table (sgpipe/render/materials.py): after a material's NLOBES SG lobes one header pair
  * (0, 0, 0, 0), (0, 0, 0, n_asg), then n_asg pairs (z, λ), (c, μ, φ, 0) with x = cos φ u + sin φ v,
  * (u, v) = basis_around(z). Defines: ASG_MAX_HALF (nodes per side, default 32; a lobe that needs
- * more gets its nodes spread over the same ±3σ and each sub-lobe widened to half the spacing). */
+ * more gets its nodes spread over the same ±3σ and each sub-lobe widened to half the spacing),
+ * ASG_SPACING (2σ), ASG_MERGE_FROM (2σ of the line; beyond, nodes merge in pairs),
+ * ASG_POINT_CUT (16: point Gaussians below e^{−16} skipped). */
 #ifndef SGPIPE_ASG_H
 #define SGPIPE_ASG_H
 
@@ -15,15 +17,22 @@
 #ifndef ASG_MAX_HALF
 #define ASG_MAX_HALF 32
 #endif
+#ifndef ASG_SPACING
 #define ASG_SPACING 2.0f    /* node spacing in sub-lobe σ (ripple ≤ 1.4 % against a point;
                               * core/asg.py KERNEL_SPACING_SIGMAS) */
+#endif
 #define ASG_FLOOR 2.0f      /* σ ≥ spacing / 2 once the node count is capped */
 #define ASG_RANGE 3.0f      /* nodes span ±3 σ of the broad axis (2.5: −0.5 dB on a sun) */
+#ifndef ASG_MERGE_FROM
+#define ASG_MERGE_FROM 2.0f /* nodes beyond this many σ of the line merge in pairs
+                              * (core/asg.py KERNEL_MERGE_FROM) */
+#endif
 
 typedef struct {
     float3 z, x, o, uh;
     float lam, mu, mass, og0, ell, dt, vline, wsum, kap1;
     int n;          /* nodes per side; 0: one lobe (kap1); < 0: none */
+    int m;          /* nodes per side kept single; beyond, neighbours merge in pairs */
 } ASGPlan;
 
 /* Number of ASG lobes of a material whose SG lobes are lobes[lobe0 .. lobe0 + nsg). */
@@ -108,13 +117,16 @@ inline ASGPlan asg_plan(float4 L0, float4 L1, float3 o) {
     p.dt = fmin(ASG_RANGE * sd / (float)p.n, 1.5f / (p.ell * (float)p.n));
     float fl = p.dt / ASG_FLOOR;
     p.vline = fmax(fmax(smax - fmax(smin, fl * fl), 0.0f) * p.ell * p.ell, 1e-30f);
+    p.m = min(p.n, (int)ceil(ASG_MERGE_FROM / ASG_RANGE * (float)p.n));
     p.wsum = 0.0f;
     for (int k = -p.n; k <= p.n; ++k) p.wsum += asg_weight(&p, (float)k * p.dt * p.ell);
     return p;
 }
 
-/* Sub-lobe count of a plan (0, 1 or 2n + 1). */
-inline int asg_sublobe_count(const ASGPlan *p) { return p->n < 0 ? 0 : 2 * p->n + 1; }
+/* Sub-lobe count of a plan (0, 1 or 2(m + ⌈(n − m)/2⌉) + 1). */
+inline int asg_sublobe_count(const ASGPlan *p) {
+    return p->n < 0 ? 0 : (p->n == 0 ? 1 : 2 * (p->m + (p->n - p->m + 1) / 2) + 1);
+}
 
 /* Sub-lobe idx of a plan as an i-space SG (amplitude: the NDF's value, M_o not applied);
  * 0 where its microfacets face away from o. Index 0 is the lobe's centre. */
@@ -124,7 +136,17 @@ inline int asg_sublobe(const ASGPlan *p, int idx, SG *out) {
                        (float3)(4.0f * p->og0 * p->mass / sg_integral_unit(p->kap1)));
         return 1;
     }
-    float s = (float)asg_node(idx) * p->dt * p->ell;
+    /* slot j: node j for |j| ≤ m, else the pair (ka, ka + 1) merged with exact moments along
+     * the line (weighted mean position, pair variance added along the chain) */
+    int j = asg_node(idx), a = abs(j);
+    int ka = a <= p->m ? a : p->m + 2 * (a - p->m) - 1;
+    int kb = a <= p->m ? a : min(ka + 1, p->n);
+    float step = p->dt * p->ell, sa = (float)ka * step, sb = (float)kb * step;
+    float wa = asg_weight(p, sa), wb = kb > ka ? asg_weight(p, sb) : 0.0f;
+    float wab = wa + wb;
+    float s = (wa * sa + wb * sb) / wab;
+    float vh = wa * wb * (sb - sa) * (sb - sa) / (wab * wab);
+    if (j < 0) s = -s;
     float cs = cos(s), sn = sin(s);
     float3 h = cs * p->z + sn * p->uh;
     float og = dot(p->o, h);
@@ -137,8 +159,10 @@ inline int asg_sublobe(const ASGPlan *p, int idx, SG *out) {
     float ta = dot(t, ea), tp = dot(t, ep);
     float jt = 2.0f * sqrt(ta * ta + og * og * tp * tp);
     float fl = p->dt * p->ell * jt / ASG_FLOOR;
-    float kap = 1.0f / fmax(smin, fl * fl);
-    float w = asg_weight(p, s) / p->wsum;
+    /* isotropic lobe of the geometric-mean variance of (σ²_min, σ²_min + pair variance) */
+    float sig2 = vh > 0.0f ? sqrt(smin * (smin + vh * jt * jt)) : smin;
+    float kap = 1.0f / fmax(sig2, fl * fl);
+    float w = wab / p->wsum;
     *out = sg_make(2.0f * og * h - p->o, kap,
                    (float3)(4.0f * og * p->mass * w / sg_integral_unit(kap)));
     return 1;
