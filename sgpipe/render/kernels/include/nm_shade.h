@@ -224,18 +224,6 @@ inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 
                                + gamma_points(pyr_pts, n_pts, w.p, w.lam));
 }
 
-/* A world direction in the environment map's frame (render.environment_rotation: the defines
- * ENV_ROT, ENV_M00 … ENV_M22 of cubemap.h; identity without them): nm_sh's SH lighting. */
-inline float3 nm_to_map(float3 d) {
-#ifdef ENV_ROT
-    return (float3)(ENV_M00 * d.x + ENV_M01 * d.y + ENV_M02 * d.z,
-                    ENV_M10 * d.x + ENV_M11 * d.y + ENV_M12 * d.z,
-                    ENV_M20 * d.x + ENV_M21 * d.y + ENV_M22 * d.z);
-#else
-    return d;
-#endif
-}
-
 /* Real SH basis (sgpipe.core.sh: orthonormal, no Condon–Shortley phase, k = l(l + 1) + m) of a
  * unit direction for l ≤ lmax into y[(lmax + 1)²]. */
 inline void nm_sh_eval(float3 d, int lmax, float *y) {

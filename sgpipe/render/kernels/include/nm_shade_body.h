@@ -175,7 +175,7 @@
             float gw[9];
             float gl[9];
             for (int k = 0; k < 9; ++k) gl[k] = k < nsh ? g[k] : 0.0f;
-            nm_sh_rotate9(gl, nm_to_map(T), nm_to_map(B), nm_to_map(N), gw);
+            nm_sh_rotate9(gl, env_to_map(T), env_to_map(B), env_to_map(N), gw);  /* cubemap.h */
             const float ah[3] = {3.14159265f, 2.09439510f, 0.785398163f};
             float3 e = (float3)(0.0f);
             for (int k = 0; k < min(9, n_env_sh); ++k)
