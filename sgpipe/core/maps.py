@@ -166,3 +166,66 @@ def dual_paraboloid_valid_mask(res, b=1.0):
     """(2, res, res) bool: texel centre lies in the map's own hemisphere (front z >= 0, back z < 0)."""
     d = dual_paraboloid_texel_dirs(res, b)
     return np.stack([d[0, ..., 2] >= 0.0, d[1, ..., 2] < 0.0])
+
+
+def faces_to_image(faces: np.ndarray) -> np.ndarray:
+    """(6, m, m, C) → (6·m, m, C): faces stacked vertically in OpenGL order."""
+    f = np.asarray(faces)
+    return f.reshape(6 * f.shape[1], f.shape[2], f.shape[3])
+
+
+def image_to_faces(img: np.ndarray) -> np.ndarray:
+    """(6·m, m, C) → (6, m, m, C)."""
+    img = np.asarray(img)
+    m = img.shape[1]
+    if img.shape[0] != 6 * m:
+        raise ValueError(f"not a vertical cube strip: shape {img.shape}")
+    return img.reshape(6, m, m, img.shape[2])
+
+
+def bordered_box_level(faces: np.ndarray, dtype=None, zero=None) -> np.ndarray:
+    """(6, n, n, C) → (6·(n+2), n+2, C): a 1-texel border per face holding the neighbouring
+    face bilinearly sampled (clamped inside that face) at the border texel's extended-plane
+    direction, so per-face bilinear fetches agree across seams to second order. `dtype`
+    (default the input's) and `zero` (a (6, n, n) mask of texels set to 0 first) spare the
+    caller a converted or masked copy of the faces."""
+    faces = np.asarray(faces)
+    n = faces.shape[1]
+    m = n + 2
+    out = np.zeros((6, m, m, faces.shape[3]), dtype or faces.dtype)
+    out[:, 1:-1, 1:-1] = faces
+    if zero is not None:
+        out[:, 1:-1, 1:-1][zero] = 0.0
+    faces = out[:, 1:-1, 1:-1]
+    ring = np.zeros((m, m), bool)
+    ring[0, :] = ring[-1, :] = ring[:, 0] = ring[:, -1] = True
+    ii, jj = np.nonzero(ring)
+    for f in range(6):
+        d = cubemap_dir(f, (jj - 0.5) / n, (ii - 0.5) / n)
+        g, s, t = dir_to_cubemap(d)
+        u = np.clip(s * n - 0.5, 0, n - 1)
+        v = np.clip(t * n - 0.5, 0, n - 1)
+        j0 = np.minimum(np.floor(u).astype(int), max(n - 2, 0))
+        i0 = np.minimum(np.floor(v).astype(int), max(n - 2, 0))
+        j1 = np.minimum(j0 + 1, n - 1)
+        i1 = np.minimum(i0 + 1, n - 1)
+        fu = (u - j0)[:, None]
+        fv = (v - i0)[:, None]
+        out[f, ii, jj] = ((1 - fv) * ((1 - fu) * faces[g, i0, j0] + fu * faces[g, i0, j1])
+                          + fv * ((1 - fu) * faces[g, i1, j0] + fu * faces[g, i1, j1]))
+    return faces_to_image(out)
+
+
+def cube_mip_chain(faces: np.ndarray) -> list[np.ndarray]:
+    """Box MIP chain (6, n, n, C) for n = N, N/2, …, 1: each parent is the solid-angle-weighted
+    mean of its 2×2 children (so ∫L dω is preserved at every level)."""
+    faces = np.asarray(faces, np.float64)
+    chain = [faces]
+    om = cubemap_solid_angles(faces.shape[1])
+    while chain[-1].shape[1] > 1 and chain[-1].shape[1] % 2 == 0:
+        f = chain[-1]
+        n = f.shape[1] // 2
+        e = (f * om[..., None]).reshape(6, n, 2, n, 2, -1).sum(axis=(2, 4))
+        om = om.reshape(6, n, 2, n, 2).sum(axis=(2, 4))
+        chain.append(e / om[..., None])
+    return chain

@@ -14,7 +14,7 @@ from sgpipe.core.sg import CLAMPED_COSINE_LAMBDA, CLAMPED_COSINE_MU, sg_inner
 from sgpipe.core.sh import sh_eval, sh_expand_bands, sh_irradiance_coeffs
 from sgpipe.envmap._lightfit_jit import (blurred_lobes, clamped_cos_sums, gauss_newton_blocks,
                                          ring_clamped_cos_sums, sg_blur_sums)
-from sgpipe.envmap.mip import cube_mip_chain
+from sgpipe.core.maps import cube_mip_chain
 
 _TWO_PI = 2.0 * np.pi
 

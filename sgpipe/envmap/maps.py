@@ -1,7 +1,7 @@
 """Environment-map I/O and conversions: lat-long ↔ cubemap ↔ dual paraboloid (Töral19 eq 11).
 
 Cubemaps are (6, n, n, C) arrays in OpenGL face order (rows ↔ t, columns ↔ s, as
-`sgpipe.core.maps.cubemap_texel_dirs`); `faces_to_image` stacks them vertically for EXR files.
+`sgpipe.core.maps.cubemap_texel_dirs`); `sgpipe.core.maps.faces_to_image` stacks them vertically for EXR files.
 Dual-paraboloid maps are (2, n, n, C) (hemisphere 0 = +Z, 1 = −Z, `core.maps` convention) and
 are stored side by side as (n, 2n, C).
 """
@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sgpipe.core.maps import (cubemap_solid_angles, dual_paraboloid_texel_dirs,
-                              latlong_texel_dirs)
+from sgpipe.core.maps import (bordered_box_level, cubemap_solid_angles,
+                              dual_paraboloid_texel_dirs, latlong_texel_dirs)
 from sgpipe.envmap._cube_jit import latlong_to_cube_jit, sample_dirs_bordered
 from sgpipe.errors import BadInput
 from sgpipe.io import read_exr
@@ -37,21 +37,6 @@ def read_environment(path: str | Path, *, key: str = KEY) -> np.ndarray:
     return img
 
 
-def faces_to_image(faces: np.ndarray) -> np.ndarray:
-    """(6, m, m, C) → (6·m, m, C): faces stacked vertically in OpenGL order."""
-    f = np.asarray(faces)
-    return f.reshape(6 * f.shape[1], f.shape[2], f.shape[3])
-
-
-def image_to_faces(img: np.ndarray) -> np.ndarray:
-    """(6·m, m, C) → (6, m, m, C)."""
-    img = np.asarray(img)
-    m = img.shape[1]
-    if img.shape[0] != 6 * m:
-        raise ValueError(f"not a vertical cube strip: shape {img.shape}")
-    return img.reshape(6, m, m, img.shape[2])
-
-
 def latlong_to_cubemap(img: np.ndarray, res: int, *, supersample: int | None = None) -> np.ndarray:
     """Lat-long (H, W, C) → cubemap (6, res, res, C): each texel is the solid-angle-weighted
     mean of ss×ss bilinear samples (φ wraps, rows reflect across the poles)."""
@@ -64,7 +49,6 @@ def latlong_to_cubemap(img: np.ndarray, res: int, *, supersample: int | None = N
 
 def sample_cubemap(faces: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     """Bilinear lookup of a cubemap (seamless through a 1-texel border) at dirs (..., 3)."""
-    from sgpipe.envmap.mip import bordered_box_level
     b = bordered_box_level(np.asarray(faces, np.float64))
     d = np.ascontiguousarray(np.asarray(dirs, float).reshape(-1, 3))
     out = sample_dirs_bordered(b, faces.shape[1], 1, d, False)
@@ -81,7 +65,6 @@ def cubemap_to_dual_paraboloid(faces: np.ndarray, res: int, b: float = 1.0, *,
     """Cubemap → dual paraboloid (2, res, res, C) (Töral19 eq 11 with scale b): each texel
     is the solid-angle-weighted mean (dω ∝ (1 + ρ²)^−2) of ss×ss bilinear cube samples."""
     from sgpipe.core.maps import dual_paraboloid_dir
-    from sgpipe.envmap.mip import bordered_box_level
     bord = bordered_box_level(np.asarray(faces, np.float64))
     n = faces.shape[1]
     ss = int(supersample)

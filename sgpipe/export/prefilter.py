@@ -12,7 +12,7 @@ import numpy as np
 
 from sgpipe.artifacts.envmap import SAMPLE_BORDER, PyramidArtifacts
 from sgpipe.core.maps import cubemap_solid_angles, cubemap_texel_dirs, dir_to_cubemap
-from sgpipe.envmap.mip import cube_mip_chain
+from sgpipe.core.maps import cube_mip_chain
 from sgpipe.envmap.pyramid import Pyramid
 from sgpipe.export import ggx_mapping as gm
 

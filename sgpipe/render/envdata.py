@@ -256,6 +256,30 @@ class EnvData:
         rec[:k, 1, :3] = self.point_energy
         return rec
 
+    def residual_mip(self) -> CubeChain:
+        """The box MIP chain (Töral19 eq 6–11) of the map minus the point set (`mip` minus the
+        chain of the points' texels, mip level 0 − pyramid/raw.exr), so that a MIP lookup plus
+        the points' exact vMF sum (gmm) counts every texel once. `mip` itself when there are no
+        points (or no raw map, or another resolution)."""
+        if not len(self.point_dirs) or self.raw is None or int(self.raw.res[0]) != self.mip_N:
+            return self.mip
+        from sgpipe.core.maps import bordered_box_level, cube_mip_chain, image_to_faces
+        inner = lambda im: image_to_faces(np.asarray(im, np.float64))[:, 1:-1, 1:-1]  # noqa: E731
+        # the points' texels (map − residual) through the same linear box chain, subtracted:
+        # level 0 is the residual itself and the stage's borders stay as written
+        pts = [bordered_box_level(f).astype(np.float32)    # the envmap stage's build_cube_chain
+               for f in cube_mip_chain(inner(self.mip.level(0)) - inner(self.raw.level(0)))]
+        out = []
+        for l, lv in enumerate(pts):
+            b = image_to_faces(np.asarray(lv, np.float64)).copy()
+            # a face's corner border texel lies on a tie of two neighbouring faces, which
+            # bordered_box_level breaks by axis order (not invariant under a turn of the map):
+            # the points' part there is the mean of its two ring neighbours
+            for i, j, di, dj in ((0, 0, 1, 1), (0, -1, 1, -1), (-1, 0, -1, 1), (-1, -1, -1, -1)):
+                b[:, i, j] = 0.5 * (b[:, i + di, j] + b[:, i, j + dj])
+            out.append(np.asarray(self.mip.level(l), np.float64) - b.reshape(lv.shape))
+        return CubeChain.from_levels(out)
+
     def light_records(self, scale: float = 1.0) -> np.ndarray:
         """(K, 2, 4) float32: (world axis, λ), (μ·scale, 0) per lobe — the kernels' env_sg
         layout."""

@@ -37,6 +37,11 @@ MIP_PARAMS = """
     const float coverage,
     __global const float4 *lights, const int n_lights"""
 
+#: ... what `gmm` takes next: the box MIP chain it reads (the map minus the point set when
+#: render.gmm_points, else `mip` itself; offsets and resolutions as `mip`) and the point set.
+GMM_POINT_PARAMS = """
+    __global const float4 *gmm_mip, __global const float4 *pyr_pts, const int n_gmm_pts"""
+
 #: ... and what every method takes last.
 TAIL_PARAMS = """
     const int flags,
@@ -117,7 +122,7 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sg", "Wang09 SG + SSDF shadows", "sg_shade",
            (PIXEL_PARAMS, SG_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",)),
     Method("gmm", "Töral19 per-view vMF mixtures with MIP lookups", "gmm_shade",
-           (PIXEL_PARAMS, MIP_PARAMS, "const int interp", TAIL_PARAMS),
+           (PIXEL_PARAMS, MIP_PARAMS, GMM_POINT_PARAMS, "const int interp", TAIL_PARAMS),
            defines=("MAX_GMM_LOBES", "GMM_TAPS", "GMM_ROTATE"), baseline_shadows=True,
            needs_view_gmm=True),
     Method("fis", "Colbert–Křivánek filtered importance sampling", "fis_shade",

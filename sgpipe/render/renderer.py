@@ -122,7 +122,7 @@ class Renderer:
     def __init__(self, *, env: EnvData, materials: MaterialTable, objects: list[ObjectShading],
                  textures: Textures | None = None, lights: list[Light] = (),
                  env_scale: float = 1.0, nv: int | None = None, fh_mode: str = "table",
-                 gmm_taps: int = 16, gmm_carry: str = "warp"):
+                 gmm_taps: int = 16, gmm_carry: str = "warp", gmm_points: bool = True):
         self.ctx, self.queue = opencl.get_context()
         self.env, self.materials, self.objects = env, materials, list(objects)
         self.env_scale = float(env_scale)
@@ -130,6 +130,7 @@ class Renderer:
         self.fh_mode = fh_mode
         self.gmm_taps = int(gmm_taps)
         self.gmm_carry = {"none": 0, "rotate": 1, "warp": 2}[gmm_carry]   # GMM_ROTATE
+        self.gmm_points = bool(gmm_points)   # gmm: residual MIP chain + exact point set
         vis = [o.vis for o in self.objects if o.vis is not None]
         nv = int(nv if nv is not None else max([v.coeffs.shape[1] for v in vis] or [0]))
         self.nv = -(-nv // 4) * 4          # kernels read the PCA terms as float4
@@ -208,6 +209,10 @@ class Renderer:
             mip_res=dev(e.mip.res, np.int32), mip_n=len(e.mip.res),
             env_sg=dev(e.light_records().reshape(-1, 4)), n_env_sg=len(e.light_lambda),
             env_scale=self.env_scale, lights=dev(lrec.reshape(-1, 4)), n_lights=len(lights))
+        # gmm: the MIP chain without the point set + the points' exact vMF sum (else Töral19's)
+        res_mip = e.residual_mip() if self.gmm_points else e.mip
+        self.static.update(gmm_mip=self.static["mip"] if res_mip is e.mip else dev(res_mip.texels),
+                           n_gmm_pts=len(e.point_dirs) if res_mip is not e.mip else 0)
 
     def defines(self, method: str) -> dict:
         """Compile-time defines of `method`'s program: NV, f_h, and the registry's per-method

@@ -4,8 +4,9 @@ import math
 import numpy as np
 import pytest
 
-from sgpipe.core.maps import (cubemap_solid_angles, cubemap_texel_dirs, dual_paraboloid_solid_angles,
-                              dual_paraboloid_texel_dirs, dual_paraboloid_valid_mask)
+from sgpipe.core.maps import (cube_mip_chain, cubemap_solid_angles, cubemap_texel_dirs,
+                              dual_paraboloid_solid_angles, dual_paraboloid_texel_dirs,
+                              dual_paraboloid_valid_mask)
 from sgpipe.envmap import maps, mip
 
 from .envmap_helpers import spot_env
@@ -14,7 +15,7 @@ from .envmap_helpers import spot_env
 def test_cube_chain_preserves_power_and_halves():
     rng = np.random.default_rng(0)
     cube = rng.random((6, 32, 32, 3)) ** 4 * 10
-    chain = mip.cube_mip_chain(cube)
+    chain = cube_mip_chain(cube)
     assert [c.shape[1] for c in chain] == [32, 16, 8, 4, 2, 1]
     p0 = maps.cubemap_power(cube)
     for c in chain:

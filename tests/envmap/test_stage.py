@@ -10,7 +10,7 @@ from sgpipe.artifacts import envmap as art
 from sgpipe.config import load_config
 from sgpipe.core.maps import latlong_texel_dirs
 from sgpipe.envmap import store
-from sgpipe.envmap.maps import image_to_faces
+from sgpipe.core.maps import image_to_faces
 from sgpipe.io import read_exr, write_exr
 from sgpipe.stages import envmap as stage
 

@@ -8,8 +8,8 @@ import pytest
 from dataclasses import replace
 
 from sgpipe.core.maps import cubemap_dir, cubemap_solid_angles, dir_to_cubemap
-from sgpipe.envmap.maps import image_to_faces
-from sgpipe.envmap.mip import bordered_box_level, build_cube_chain
+from sgpipe.core.maps import bordered_box_level, image_to_faces
+from sgpipe.envmap.mip import build_cube_chain
 from sgpipe.render.envdata import CubeChain, EnvData
 from sgpipe.render.materials import Material, pack_materials
 from sgpipe.render.records import KernelFlag

@@ -147,6 +147,11 @@ class RenderSection:
         "gmm: how a fitted view's lobes reach the pixel's view. warp: through each lobe's half "
         "vector (the NDF stays put; anisotropic lobes keep their orientation); rotate: rigidly "
         "with the mirror direction; none: Töral19's nearest view as fitted.", "warp")
+    gmm_points: bool = doc("gmm: the environment's bright point set (sun, lamps; the envmap "
+                           "stage's pyramid.npz points) is summed exactly per lobe (Σ E_p vMF(p)) "
+                           "and the MIP chain holds the map without it; false: Töral19's MIP "
+                           "lookups of the whole map (a sun smaller than the lobe's texel moves "
+                           "to the texel centre).", True)
     baseline_shadows: bool = doc("gmm/fis: apply the SSDF visibility as sg does (the papers' "
                                  "baselines are unshadowed; false reproduces that).", True)
     fh: Literal["table", "sigmoid"] = doc(

@@ -9,7 +9,7 @@ import numba
 import numpy as np
 
 from sgpipe.core.sg import sg_integral
-from sgpipe.envmap.mip import bordered_box_level
+from sgpipe.core.maps import bordered_box_level
 from sgpipe.envmap.pyramid._spline_jit import finish_level
 from sgpipe.envmap.pyramid.broad import broad_level
 from sgpipe.envmap.pyramid.chain import ChainSources, chained_level
