@@ -106,3 +106,15 @@ def rotation_matrix(axis, angle_deg: float) -> np.ndarray:
     # cos 90° = 6e-17, not 0: snap entries within rounding of an integer so that quarter turns
     # permute cube faces exactly (and leave the identity an identity)
     return np.where(np.abs(R - snapped) < 1e-12, snapped, R) + 0.0
+
+
+def checked_rotation(rotation) -> np.ndarray | None:
+    """None, or `rotation` as a (3, 3) float64 proper rotation (None for the identity, so
+    callers skip the work); ValueError for anything else."""
+    if rotation is None:
+        return None
+    R = np.array(rotation, np.float64)
+    if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-9) \
+            or np.linalg.det(R) < 0:
+        raise ValueError(f"not a rotation matrix: {np.asarray(rotation).tolist()}")
+    return None if np.array_equal(R, np.eye(3)) else R

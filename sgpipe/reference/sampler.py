@@ -10,6 +10,7 @@ import os
 
 import numpy as np
 
+from sgpipe.core.rotation import checked_rotation
 from sgpipe.reference import _sampling_jit as jit
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
@@ -35,7 +36,7 @@ class EnvSampler:
         self.rgb = np.maximum(rgb, 0.0)
         self.lum = np.ascontiguousarray(self.rgb @ LUMA)
         self.row_cdf, self.col_cdf, self.cos_edge, self.z = jit.build_distribution(self.lum)
-        self.rotation = _checked_rotation(rotation)
+        self.rotation = checked_rotation(rotation)
 
     def __reduce__(self):
         # pickled (to the worker processes) as the image and rotation; the tables are rebuilt
@@ -46,7 +47,7 @@ class EnvSampler:
         self. The tables are shared."""
         if rotation is None:
             return self
-        R = _checked_rotation(rotation)
+        R = checked_rotation(rotation)
         if self.rotation is not None:
             R = R @ self.rotation
         out = object.__new__(EnvSampler)
@@ -78,12 +79,3 @@ class EnvSampler:
         return self.lookup(dirs)[1]
 
 
-def _checked_rotation(rotation):
-    """None, or `rotation` as a (3, 3) float64 proper rotation (None for the identity)."""
-    if rotation is None:
-        return None
-    R = np.array(rotation, np.float64)
-    if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-9) \
-            or np.linalg.det(R) < 0:
-        raise ValueError(f"not a rotation matrix: {np.asarray(rotation).tolist()}")
-    return None if np.array_equal(R, np.eye(3)) else R

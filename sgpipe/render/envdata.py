@@ -26,6 +26,7 @@ import numpy as np
 
 from sgpipe.artifacts import envmap as contract
 from sgpipe.artifacts.envmap import COEF_BORDER, SAMPLE_BORDER
+from sgpipe.core.rotation import checked_rotation
 from sgpipe.core.sg import dln_sg_norm
 from sgpipe.errors import BadInput
 
@@ -217,12 +218,9 @@ class EnvData:
     def rotated(self, rotation) -> "EnvData":
         """This environment turned by `rotation` (3, 3 world ← map; None: unchanged) after its
         own rotation; the arrays are shared, not copied."""
-        if rotation is None:
+        R = checked_rotation(rotation)
+        if R is None:
             return self
-        R = np.asarray(rotation, np.float64)
-        if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-9) \
-                or np.linalg.det(R) < 0:
-            raise ValueError(f"not a rotation matrix: {R.tolist()}")
         if self.rotation is not None:
             R = R @ self.rotation
         return replace(self, rotation=None if np.array_equal(R, np.eye(3)) else R)
