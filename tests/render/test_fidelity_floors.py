@@ -1,0 +1,99 @@
+"""Issue 15's fidelity floors in CI: sg on GGX α 0.1 + red diffuse under the studio map and gmm
+on a Beckmann α 0.2 sphere under the sky with a sun, through the real stages (fit → precompute →
+render, 3×3 supersampled) at 48², against a two-seed Monte Carlo reference (box filter), surface
+display PSNR corrected for the reference's noise (benchmarks/bench_fidelity.py).
+
+Each floor sits between the fidelity it guards and the regression it catches, and the regression
+is rendered here too: sg with two NDF lobes (`fit.ndf_sg.lobes: 2`, the old GGX fit) and gmm
+without the environment's point set (`render.gmm_points: false`) must fall below their floors."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+pytestmark = [pytest.mark.opencl, pytest.mark.slow]
+
+ROOT = Path(__file__).resolve().parents[2]
+_BENCH = ROOT / "benchmarks" / "bench_fidelity.py"
+_spec = importlib.util.spec_from_file_location("bench_fidelity_floors", _BENCH)
+_bench = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_bench)      # benchmarks/ is not an installed package
+
+SIZE = 48
+SIZE_OVERRIDES = (f"render.camera.width={SIZE}", f"render.camera.height={SIZE}")
+SCENES = ROOT / "validation" / "scenes"
+
+# GGX scene: the reference at 2 × 512 spp has a 43 dB surface noise floor (37 dB seed A vs B);
+# measured sg 41.0 dB with the lobe rule (3-4 lobes), 33.9 dB with 2 lobes.
+GGX_SCENE = SCENES / "ggx_a0.1_red_diffuse_studio.yaml"
+GGX_SPP = 512
+GGX_OVERRIDES = SIZE_OVERRIDES + ("fit.view_gmm.enabled=false",)   # sg does not read view GMMs
+SG_FLOOR_DB = 37.5
+
+# Sun scene: reference at 2 × 256 spp, ~49 dB surface noise floor; measured gmm 44.9–45.3 dB
+# with the point set, 31.3 dB without.
+SUN_SCENE = SCENES / "beckmann_a0.05_sky_sun.yaml"
+SUN_SPP = 256
+SUN_OVERRIDES = SIZE_OVERRIDES + ("fit.materials.0.params.alpha=0.2",)
+GMM_FLOOR_DB = 39.0
+
+#: the noise floor must clear the method's floor by this much for the corrected PSNR to mean
+#: something (bench_fidelity._noisy: within 3 dB the estimate is only a lower bound)
+NOISE_MARGIN_DB = 3.0
+
+
+def _surface(result: dict, method: str) -> dict:
+    assert method in result["methods"], result["errors"]
+    return result["methods"][method]
+
+
+def _report(tag: str, v: dict) -> None:
+    print(f"{tag}: surface {v['surface_display_psnr_db']:.2f} dB (raw "
+          f"{v['raw_surface_display_psnr_db']:.2f}, reference noise floor "
+          f"{v['surface_floor_db']:.2f})")
+
+
+@pytest.fixture(scope="module")
+def ggx_sg():
+    """sg on the GGX scene with the default lobe rule; its reference is reused below."""
+    return _bench.measure(GGX_SCENE, ("sg",), GGX_OVERRIDES, spp=GGX_SPP)
+
+
+@pytest.fixture(scope="module")
+def sun_gmm():
+    """gmm with the environment's point set on the sun scene; its reference is reused below."""
+    return _bench.measure(SUN_SCENE, ("gmm",), SUN_OVERRIDES + ("render.gmm_points=true",),
+                          spp=SUN_SPP)
+
+
+def test_sg_ggx_floor(ggx_sg):
+    v = _surface(ggx_sg, "sg")
+    _report("sg GGX lobe rule", v)
+    assert v["surface_floor_db"] > SG_FLOOR_DB + NOISE_MARGIN_DB
+    assert v["surface_display_psnr_db"] >= SG_FLOOR_DB
+
+
+def test_sg_floor_catches_two_lobe_ggx_fit(ggx_sg):
+    r = _bench.measure(GGX_SCENE, ("sg",), GGX_OVERRIDES + ("fit.ndf_sg.lobes=2",),
+                       reference=ggx_sg["reference"])
+    v = _surface(r, "sg")
+    _report("sg GGX 2 lobes", v)
+    assert v["surface_display_psnr_db"] < SG_FLOOR_DB
+
+
+def test_gmm_sun_floor(sun_gmm):
+    v = _surface(sun_gmm, "gmm")
+    _report("gmm sun with points", v)
+    assert v["surface_floor_db"] > GMM_FLOOR_DB + NOISE_MARGIN_DB
+    assert v["surface_display_psnr_db"] >= GMM_FLOOR_DB
+
+
+def test_gmm_floor_catches_missing_point_set(sun_gmm):
+    r = _bench.measure(SUN_SCENE, ("gmm",), SUN_OVERRIDES + ("render.gmm_points=false",),
+                       reference=sun_gmm["reference"])
+    v = _surface(r, "gmm")
+    _report("gmm sun without points", v)
+    assert v["surface_display_psnr_db"] < GMM_FLOOR_DB
