@@ -41,13 +41,15 @@ def write(tmp_path, text: str) -> Path:
     return p
 
 
-def start(tmp_path, *args) -> tuple[subprocess.Popen, Path]:
+def start(tmp_path, *args, env=None) -> tuple[subprocess.Popen, Path]:
     """`python -m sgpipe ARGS` in a session of its own (so a signal can go to its group, as a
-    terminal's Ctrl-C does); stderr into a file that the test can read while it runs."""
+    terminal's Ctrl-C does); stderr into a file that the test can read while it runs; `env`:
+    extra environment variables."""
     err = tmp_path / f"stderr{time.monotonic_ns()}.txt"
     with open(err, "w") as fh:
         proc = subprocess.Popen([sys.executable, "-m", "sgpipe", *map(str, args)],
-                                stdout=subprocess.DEVNULL, stderr=fh, start_new_session=True)
+                                stdout=subprocess.DEVNULL, stderr=fh, start_new_session=True,
+                                env={**os.environ, **(env or {})})
     return proc, err
 
 
@@ -152,9 +154,13 @@ def test_render_stage(tmp_path):
           spp: 4096
     """))
     out = tmp_path / "out"
-    proc, err = start(tmp_path, "run", cfg, "--out", out)
+    # the reference's progress bar (forced on without a terminal) says when it has started:
+    # the signal then lands in the Monte Carlo work, not in an OpenCL build (a C call that
+    # finishes before Python sees the signal)
+    proc, err = start(tmp_path, "run", cfg, "--out", out, env={"SGPIPE_PROGRESS": "1"})
     wait_for(proc, "render staging folder", lambda: (out / ".render.staging").is_dir())
-    time.sleep(1.5)
+    wait_for(proc, "the reference's progress bar", lambda: "reference" in err.read_text())
+    time.sleep(0.5)
     rc, seconds = interrupt(proc, signal.SIGTERM, False)
     assert_interrupted(rc, seconds, err, signal.SIGTERM)
     assert sorted(p.name for p in out.iterdir()) == ["envmap", "fit", "visibility"]
