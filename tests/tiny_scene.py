@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 SAMPLES = Path(__file__).resolve().parent.parent / "data_samples"
 
 
@@ -30,3 +32,15 @@ render:
   spp: 4
   compare_to: reference
 """
+
+
+def write_floor(path, n: int) -> None:
+    """An OBJ grid of n × n vertices over [−1.5, 1.5]² at y = 0, facing +y (the stage tests'
+    floor)."""
+    x = np.linspace(-1.5, 1.5, n)
+    lines = [f"v {a} 0 {b}" for b in x for a in x]
+    for i in range(n - 1):
+        for j in range(n - 1):
+            a = i * n + j + 1
+            lines += [f"f {a} {a + n} {a + 1}", f"f {a + 1} {a + n} {a + n + 1}"]
+    path.write_text("\n".join(lines) + "\n")

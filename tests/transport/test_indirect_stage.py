@@ -16,6 +16,7 @@ import pytest
 from sgpipe.artifacts import transport as contract
 from sgpipe.config import load_config
 from sgpipe.stages import transport as stage
+from tiny_scene import write_floor  # tests/ is on sys.path
 
 DATA = Path(__file__).resolve().parents[2] / "data_samples"
 FLOOR_RGB = (0.6, 0.3, 0.15)
@@ -46,18 +47,8 @@ transport:
 FLOOR = "    - {name: floor, mesh: floor.obj, material: floor}"
 
 
-def write_floor(path, n=4):
-    x = np.linspace(-1.5, 1.5, n)
-    lines = [f"v {a} 0 {b}" for b in x for a in x]
-    for i in range(n - 1):
-        for j in range(n - 1):
-            a = i * n + j + 1
-            lines += [f"f {a} {a + n} {a + 1}", f"f {a + 1} {a + n} {a + n + 1}"]
-    path.write_text("\n".join(lines) + "\n")
-
-
 def run_stage(tmp_path, name, *, workers=1, chunk=16, indirect=True, floor=True, bounces=2):
-    write_floor(tmp_path / "floor.obj")
+    write_floor(tmp_path / "floor.obj", 4)
     p = tmp_path / f"{name}.yaml"
     p.write_text(textwrap.dedent(CONFIG.format(
         workers=workers, chunk=chunk, indirect=str(indirect).lower(), bounces=bounces,
@@ -171,7 +162,7 @@ def test_kernel_sums_the_sh_transfer_per_colour_channel():
 def test_sgpipe_run_renders_transport_with_indirect(tmp_path):
     """`sgpipe run` end to end: the fit, envmap, visibility and transport (indirect) stages and
     the render of `transport` beside the 1-bounce reference, compared by the render stage."""
-    write_floor(tmp_path / "floor.obj")
+    write_floor(tmp_path / "floor.obj", 4)
     cfg = textwrap.dedent(f"""
         name: tri_run
         seed: 0

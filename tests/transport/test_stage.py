@@ -14,6 +14,7 @@ from sgpipe.config import load_config
 from sgpipe.errors import BadInput
 from sgpipe.transport import compact
 from sgpipe.stages import transport as stage
+from tiny_scene import write_floor  # tests/ is on sys.path
 
 CONFIG = """
 name: tr
@@ -35,19 +36,9 @@ transport:
 """
 
 
-def write_floor(path, n=4):
-    x = np.linspace(-1.5, 1.5, n)
-    lines = [f"v {a} 0 {b}" for b in x for a in x]
-    for i in range(n - 1):
-        for j in range(n - 1):
-            a = i * n + j + 1
-            lines += [f"f {a} {a + n} {a + 1}", f"f {a + 1} {a + n} {a + n + 1}"]
-    path.write_text("\n".join(lines) + "\n")
-
-
 def make(tmp_path, workers=1, res=8, mesh="floor.obj", extra=""):
     if not (tmp_path / "floor.obj").exists():
-        write_floor(tmp_path / "floor.obj")
+        write_floor(tmp_path / "floor.obj", 4)
     p = tmp_path / "c.yaml"
     p.write_text(textwrap.dedent(CONFIG.format(workers=workers, res=res, mesh=mesh)) + extra)
     return p

@@ -15,6 +15,7 @@ from sgpipe.visibility import decode_ssdf
 from sgpipe.visibility.hemigrid import texel_dirs
 from sgpipe.visibility.ssdf import ssdf_from_visibility
 from sgpipe.visibility.trace import build_scene, trace_visibility
+from tiny_scene import write_floor  # tests/ is on sys.path
 
 CONFIG = """
 name: vis
@@ -37,18 +38,8 @@ visibility:
 """
 
 
-def write_floor(path, n=6):
-    x = np.linspace(-1.5, 1.5, n)
-    lines = [f"v {a} 0 {b}" for b in x for a in x]
-    for i in range(n - 1):
-        for j in range(n - 1):
-            a = i * n + j + 1
-            lines += [f"f {a} {a + n} {a + 1}", f"f {a + 1} {a + n} {a + n + 1}"]
-    path.write_text("\n".join(lines) + "\n")
-
-
 def make(tmp_path, workers=1, terms=64):
-    write_floor(tmp_path / "floor.obj")
+    write_floor(tmp_path / "floor.obj", 6)
     p = tmp_path / "c.yaml"
     p.write_text(textwrap.dedent(CONFIG.format(workers=workers, terms=terms)))
     return load_config(p)
