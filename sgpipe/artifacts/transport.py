@@ -130,6 +130,16 @@ def read_sh_transfer_rgb(folder: str | Path, obj: str) -> tuple[np.ndarray, np.n
     return full, arrays["diffuse_rgb"]
 
 
+def read_sh_transfer_indirect(folder: str | Path, obj: str) -> np.ndarray | None:
+    """The interreflected part of the transfer alone, (X, 25, 3) float32, or None when the
+    stage ran without `transport.indirect`."""
+    arrays = read_npz(Path(folder) / object_file(obj, SH_TRANSFER))
+    if "transfer_indirect" not in arrays:
+        return None
+    return np.asarray(arrays["transfer_indirect"], np.float32)
+
+
 __all__ = ["GAUSSIANS", "SH_TRANSFER", "GEOMETRY", "REPORT", "object_file", "write_object",
-           "read_packed_gaussians", "read_sh_transfer", "read_sh_transfer_rgb", "N_VIEWS",
+           "read_packed_gaussians", "read_sh_transfer", "read_sh_transfer_rgb",
+           "read_sh_transfer_indirect", "N_VIEWS",
            "oct_decode", "sigma_decode", "unpack_views", "decode_gaussians", "read_gaussians"]

@@ -85,14 +85,26 @@ def rgb_transfer(transfer) -> np.ndarray:
     return t
 
 
-def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None) -> dict:
+def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None,
+                     points=None) -> dict:
     """Kernel arrays for per-object data `objects` (None, or dict with mu, sigma, w, transfer
-    (X, 25, 3) per colour channel — or (X, 25), the same in every channel —, diffuse_rgb (3,),
-    faces (F, 3)) and SH light coefficients (n, 3) of the map, turned by `rotation` (3×3
-    world ← map, or None). tp_sh is (X·25·3) floats, vertex-major, then coefficient, then RGB
+    (X, 25, 3) per colour channel — or (X, 25), the same in every channel —, optionally
+    indirect (X, 25, 3), the interreflected part of transfer, diffuse_rgb (3,), faces (F, 3))
+    and SH light coefficients (n, 3) of the map, turned by `rotation` (3×3 world ← map, or
+    None). `points`: the environment's point set (directions (K, 3) in the map's frame,
+    energies (K, 3)) that objects with SSDF visibility shade as delta lights: tp_light_sh holds
+    the whole map's coefficients, the map's minus the points' (Σ_k E_k Y(c_k)), and the
+    points'. tp_sh and tp_sh_ind are (X·25·3) floats, vertex-major, then coefficient, then RGB
     (the kernel's vload3 per coefficient)."""
-    light_sh = rotate_sh(light_sh, rotation)
-    rows, faces, gauss, sh, fd = [], [], [], [], []
+    light_sh = np.asarray(light_sh, np.float64).reshape(-1, 3)
+    pts_sh = np.zeros_like(light_sh)
+    if points is not None and len(points[0]) and len(light_sh):
+        from sgpipe.core.sh import sh_eval
+        lmax = int(round(np.sqrt(len(light_sh)))) - 1
+        pts_sh = sh_eval(np.asarray(points[0], np.float64), lmax).T @ np.asarray(points[1],
+                                                                               np.float64)
+    light_sh, pts_sh = rotate_sh(light_sh, rotation), rotate_sh(pts_sh, rotation)
+    rows, faces, gauss, sh, ind, fd = [], [], [], [], [], []
     v0 = f0 = 0
     K = max([o["sigma"].shape[2] for o in objects if o is not None] or [1])
     for o in objects:
@@ -106,10 +118,13 @@ def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None) -> dict
         if k < K:      # pad to the scene's K with zero-weight Gaussians (skipped by the kernel)
             pad = lambda a: np.concatenate([a, np.zeros(a.shape[:2] + (K - k,) + a.shape[3:])], 2)
             mu, sigma, w = pad(mu), pad(sigma), pad(w)
-        rows.append((v0, f0, K, 1))
+        has_ind = o.get("indirect") is not None
+        rows.append((v0, f0, K, 1 | (2 if has_ind else 0)))   # transport_shade.cl TP_HAS_*
         faces.append(np.asarray(o["faces"], np.int32).reshape(-1))
         gauss.append(pack_gaussians(mu, sigma, w))
         sh.append(rgb_transfer(o["transfer"]).reshape(-1))
+        ind.append(rgb_transfer(o["indirect"] if has_ind else np.zeros((X, SH_COEFFS),
+                                                                       np.float32)).reshape(-1))
         fd.append(np.append(np.asarray(o["diffuse_rgb"], np.float32), 0.0))
         v0 += X
         f0 += len(o["faces"])
@@ -118,13 +133,15 @@ def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None) -> dict
                        f"{MAX_GAUSSIANS}", key="transport.gaussians")
     cat = lambda parts, dt, w=1: (np.concatenate(parts).astype(dt) if parts
                                   else np.zeros((1, w) if w > 1 else 1, dt))
-    L = np.zeros((SH_COEFFS, 4), np.float32)
+    L = np.zeros((3, SH_COEFFS, 4), np.float32)       # whole map, map − points, points
     n_sh = min(len(light_sh), SH_COEFFS)
-    L[:n_sh, :3] = light_sh[:n_sh]
+    for i, c in enumerate((light_sh, light_sh - pts_sh, pts_sh)):
+        L[i, :n_sh, :3] = c[:n_sh]
     vinv, vtri = view_tables()
     return dict(tp_obj=np.asarray(rows, np.int32), tp_faces=cat(faces, np.int32),
                 tp_gauss=cat(gauss, np.float32, 4), tp_sh=cat(sh, np.float32),
-                tp_fd=np.asarray(fd, np.float32), tp_light_sh=L, tp_sh_n=n_sh,
+                tp_sh_ind=cat(ind, np.float32), tp_fd=np.asarray(fd, np.float32),
+                tp_light_sh=L.reshape(-1, 4), tp_sh_n=n_sh,
                 tp_vinv=vinv, tp_vtri=vtri)
 
 
@@ -133,7 +150,7 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
     `<out>/transport/`. The kernel indexes them with the frame's SSDF-mesh triangles, so each
     object's transport mesh must be its visibility mesh (`ssdf_faces`, per object or None)."""
     from sgpipe.artifacts.transport import (GEOMETRY, object_file, read_gaussians,
-                                            read_sh_transfer_rgb)
+                                            read_sh_transfer_indirect, read_sh_transfer_rgb)
     from sgpipe.io import read_npz
     folder = Path(out_dir) / "transport"
     if cfg.transport is None or not (folder / "manifest.json").is_file():
@@ -152,7 +169,8 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
                            "visibility.sphere_subdivisions; the transport method needs a "
                            "`visibility:` section)", file=folder / spec.name,
                            key="transport.sphere_subdivisions")
-        out.append(dict(mu=mu, sigma=sigma, w=w, transfer=transfer, diffuse_rgb=fd, faces=faces))
+        out.append(dict(mu=mu, sigma=sigma, w=w, transfer=transfer, diffuse_rgb=fd, faces=faces,
+                        indirect=read_sh_transfer_indirect(folder, spec.name)))
     return out
 
 
@@ -167,7 +185,9 @@ def attach_transport(renderer, cfg, out_dir: str | Path, vis_objects: list) -> N
     objs = load_transport_objects(cfg, out_dir, [None if v is None else v.faces
                                                  for v in vis_objects])
     rot = cfg.render.environment_rotation.matrix() if cfg.render is not None else None
-    upload_transport(renderer, transport_arrays(objs, light, rot))
+    env = renderer.env        # its point set, in the map's frame (turned like the SH)
+    upload_transport(renderer, transport_arrays(objs, light, rot,
+                                                (env.point_dirs, env.point_energy)))
 
 
 def upload_transport(renderer, arrays: dict) -> None:

@@ -1,6 +1,12 @@
 /* Method `transport`: Green06 rendering (§5) of G-buffer pixels from the transport stage.
  *   glossy  Σ_k w_k · Γ_L(μ_k, 1/σ_k²)     (eq 4 integrated against the lighting, eq 1)
  *   diffuse f_d · Σ_j L_j t_j               (§6.1, shadowed PRT, 25 SH coefficients)
+ * An object with SSDF visibility takes the environment's point set (the sun) out of its PRT:
+ * the SH light is then the map minus the points, and each point k adds the delta light
+ * f_d E_k max(0, n·c_k) f̂_h(θ_d(c_k)) with the SSDF's sharp horizon (as `sg` shades small
+ * lights), because 25 coefficients cannot hold a point light's shadow; the points' share of
+ * the interreflected transfer stays in SH (it is smooth). tp_light_sh: 25 rows of the whole
+ * map, 25 of the map minus the points, 25 of the points alone (transport_data.py).
  * Per pixel, each vertex of the hit triangle gets its Gaussians interpolated across the three
  * views around the pixel's view direction, then the three are blended barycentrically
  * (transport.h, mirroring sgpipe.transport.interp). Green06's G(ω) = exp((ω·μ − 1)/σ²) is the
@@ -8,10 +14,14 @@
  * pyramid lookup (cubemap.h gamma_lookup_acc + the point set), as `sg` does.
  * tp_obj per object: (first vertex row, first face, Gaussians K, has data). */
 #include "sg.h"
+#include "ssdf.h"
 #include "cubemap.h"
-#include "records.h"
-#include "methods.h"
+#include "microfacet.h"
+#include "shading.h"   /* records.h, methods.h, the SSDF state Vis */
 #include "transport.h"
+
+#define TP_POINT_LAMBDA 2e4f   /* the point lights' sharpness for the SSDF horizon (f̂_h) */
+#define TP_HAS_INDIRECT 2      /* tp_obj.w bit: tp_sh_ind holds the interreflected transfer */
 
 __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
 {
@@ -47,13 +57,32 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
             }
         }
         if (!(flags & FLAG_NO_ENV_DIFFUSE)) {
+            Vis vis;
+            vis_init(&vis, objs[gobj[gid]], OBJF_MAXD(objf[gobj[gid]]), tri, gbary[gid],
+                     vfaces, coeffs, ssdf_data, !(flags & FLAG_NO_VISIBILITY));
+            int split = vis.has && n_pts > 0;
+            __global const float4 *L = tp_light_sh + (split ? 25 : 0);
+            int ind = split && (to.w & TP_HAS_INDIRECT);
             /* the transfer vector is linear: blend it, then one dot product with the light
                per colour channel (interreflected transfer is RGB: tp_sh is (X, 25, 3)) */
             for (int j = 0; j < tp_sh_n; ++j) {
                 float3 t = bt[0] * vload3(vert[0] * 25 + j, tp_sh)
                            + bt[1] * vload3(vert[1] * 25 + j, tp_sh)
                            + bt[2] * vload3(vert[2] * 25 + j, tp_sh);
-                rd += t * tp_light_sh[j].xyz;
+                rd += t * L[j].xyz;
+                if (ind)
+                    rd += (bt[0] * vload3(vert[0] * 25 + j, tp_sh_ind)
+                           + bt[1] * vload3(vert[1] * 25 + j, tp_sh_ind)
+                           + bt[2] * vload3(vert[2] * 25 + j, tp_sh_ind)) * tp_light_sh[50 + j].xyz;
+            }
+            if (split) {
+                float3 N = gnrm[gid].xyz, T = gtan[gid].xyz, B = cross(N, T);
+                for (int k = 0; k < n_pts; ++k) {
+                    float3 c = to_local(pyr_pts[2 * k].xyz, T, B, N);
+                    if (c.z > 0.0f)
+                        rd += pyr_pts[2 * k + 1].xyz
+                              * (c.z * fh_hat(vis_theta(&vis, c), TP_POINT_LAMBDA));
+                }
             }
             rd *= tp_fd[gobj[gid]].xyz * env_scale;
         }
