@@ -14,7 +14,8 @@ NDF coefficients γ_lm (⌈K/4⌉ float4 per texel, K = (l* + 1)², zero-padded)
 per scene object: (first level row, levels, lobes J, has map). `nm_brdf` NM_BRDF_STRIDE floats
 per object: Blinn–Phong exponent s or microfacet roughness (Beckmann α, Cook–Torrance m), max
 taps along the footprint's major axis (1: isotropic), model (BRDF_MODELS), K, ρ̂_0 … ρ̂_8 of the
-specular function the SH method filters (eq 11), environment specular on (1/0), 0, 0.
+specular function the SH method filters (eq 11), environment specular on (1/0), footprint filter
+(0 trilinear, 1 box: render.normalmap_footprint), 0.
 `nm_env_sh` float4 per coefficient: the environment's radiance SH L_lm (world, l ≤ 2)."""
 
 from __future__ import annotations
@@ -33,6 +34,8 @@ BRDF_MODELS = {"lambert": 0, "blinn_phong": 1, "beckmann": 2, "cook_torrance": 3
 BRDF_STRIDE = 16     # nm_shade.h NM_BRDF_STRIDE
 RHO0 = 4             # first ρ̂_l slot
 ENV_SLOT = 13        # environment specular on
+FOOT_SLOT = 14       # footprint filter (nm_shade.h NM_FOOT_SLOT): 0 trilinear, 1 box
+FOOTPRINTS = {"trilinear": 0, "box": 1}
 SH_LMAX = 8          # l* ≤ 8 (nm_shade.h NM_MAX_SH4 = 21 float4)
 
 
@@ -88,7 +91,7 @@ class NormalMapData:
 
     @classmethod
     def pack(cls, pyramids: list, params: list, max_taps: int = 1, models: list | None = None,
-             rho_hat: list | None = None) -> "NormalMapData":
+             rho_hat: list | None = None, footprint: str = "trilinear") -> "NormalMapData":
         """Pack per-object pyramids (None: no map; the same object shares its rows) with each
         object's BRDF parameter (Blinn–Phong s, or microfacet roughness), model code
         (default Blinn–Phong) and ρ̂_l of its specular function (nm_sh)."""
@@ -126,6 +129,7 @@ class NormalMapData:
         brdf[:, 1] = max_taps
         brdf[:, 2] = models if models is not None else BRDF_MODELS["blinn_phong"]
         brdf[:, 3] = nsh
+        brdf[:, FOOT_SLOT] = FOOTPRINTS[footprint]
         for k, rho in enumerate(rho_hat or []):
             if rho is not None:
                 brdf[k, RHO0:RHO0 + len(rho)] = np.asarray(rho, np.float32)[:SH_LMAX + 1]
@@ -194,7 +198,8 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
            specular_sh_coeffs(model, param, int(round(math.sqrt(p.gamma[0].shape[-1]))) - 1)
            for p, (model, param) in zip(pyramids, lobes)]
     data = NormalMapData.pack(pyramids, [prm for _, prm in lobes], taps,
-                              [BRDF_MODELS[mdl] for mdl, _ in lobes], rho)
+                              [BRDF_MODELS[mdl] for mdl, _ in lobes], rho,
+                              footprint=getattr(cfg.render, "normalmap_footprint", "trilinear"))
     light_sh = None
     if cfg.envmap is not None:
         from sgpipe.artifacts.envmap import read_light_sh

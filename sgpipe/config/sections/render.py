@@ -170,6 +170,14 @@ class RenderSection:
         "isotropic, the MIP level of the longer UV derivative; N > 1: anisotropic, the level of "
         "the shorter one raised until N taps span the longer, their α, α·r and mean normals "
         "averaged before κ and μ are recovered (Han07 eq 24, Fig 3).", 1, ge=1, le=64)
+    normalmap_footprint: Literal["trilinear", "box"] = doc(
+        "Normal-map methods: the filter over the pixel's texture footprint. trilinear: MIP "
+        "level log2 of the footprint, bilinear within it and linear between levels (a tent "
+        "about twice the pixel; normalmap_max_taps taps along an anisotropic one), the lobes' "
+        "α, α·r blended (eq 24). box: the reference's box pixel filter — at the finest level "
+        "where the footprint's box (its u and v extents) overlaps ≤ 9 texels, each texel "
+        "weighted by its overlap and its lobes kept as they are (at level 0: a grid of up to "
+        "4 × 4 bilinear-normal taps).", "trilinear")
 
     def validate(self):
         if self.compare_to is not None and self.compare_to not in self.methods:

@@ -48,6 +48,9 @@
 #define NM_BECKMANN 2
 #define NM_COOK 3
 #define NM_LIGHT_LAMBDA 2e4f  /* delta lights' sharpness for the SSDF horizon (shading.h cap) */
+#define NM_FOOT_SLOT 14     /* nm_brdf: render.normalmap_footprint (0 trilinear, 1 box) */
+#define NM_BOX_TEXELS 9     /* box footprint: texels of its level it may overlap */
+#define NM_BOX_L0_TAPS 4    /* box footprint at level 0: bilinear-normal taps per edge */
 
 /* Bilinear fetch of slot `slot` (of `stride` per texel) of a level at (off, side m): repeat
  * addressing, row 0 = v = 1, texel centres at half-integers (vmf.bilinear, tex_bilinear). */
@@ -65,6 +68,23 @@ inline float4 nm_bilinear(__global const float4 *d, int off, int m, int stride, 
     float4 a = t[(y0 * m + x0) * stride] * (1.0f - fx) + t[(y0 * m + x1) * stride] * fx;
     float4 b = t[(y1 * m + x0) * stride] * (1.0f - fx) + t[(y1 * m + x1) * stride] * fx;
     return a * (1.0f - fy) + b * fy;
+}
+
+/* Box footprint along one texel axis: the interval [c − w/2, c + w/2] (texel units of a level
+ * of side m, texel k covering [k, k + 1), repeat addressing) over the texels it overlaps: their
+ * indices (wrapped) and weights overlap / w (summing to 1), at most `cap`; the count, or cap + 1
+ * when more would be needed. w is clamped to m (a box wider than the map covers it whole). */
+inline int nm_box_axis(float c, float w, int m, int cap, int *idx, float *wt) {
+    w = clamp(w, 1e-6f, (float)m);
+    float a = c - 0.5f * w, b = c + 0.5f * w;
+    int k0 = (int)floor(a), k1 = (int)ceil(b) - 1;
+    if (k1 - k0 + 1 > cap) return cap + 1;
+    for (int k = k0; k <= k1; ++k) {
+        int q = k % m;
+        idx[k - k0] = q < 0 ? q + m : q;
+        wt[k - k0] = (fmin(b, (float)(k + 1)) - fmax(a, (float)k)) / w;
+    }
+    return k1 - k0 + 1;
 }
 
 /* Trilinear fetch between levels l0 and l0 + 1 with weight f (f = 0: l0 only) of slot `slot`

@@ -1,5 +1,10 @@
 /* Body of the normal-map kernels (included inside each __kernel function; NM_FILTER selects
  * the filter, nm_shade.h documents the shading). */
+#if NM_FILTER == NM_VMF
+#define NM_MAX_AX (NM_MAX_LOBES * NM_BOX_TEXELS + NM_MAX_L0)
+#else
+#define NM_MAX_AX 1
+#endif
     NM_PIXEL_PROLOGUE;
     int obj = gobj[gid];
     int4 info = nm_info[obj];
@@ -13,10 +18,58 @@
      * (max taps 1): the level of the longer UV derivative. Anisotropic (max taps N > 1): the
      * level of the shorter one, raised until N taps along the longer one span it; the taps'
      * α, α·r, mean normals and γ_lm are averaged (linear in the NDF, eq 24) before κ, μ. */
-    int l0 = 0, l1 = 0, ntap = 1;
+    int l0 = 0, l1 = 0, ntap = 1, nx = 1;
     float f = 0.0f;
-    float2 uv0 = uv, du = (float2)(0.0f);
-    if (info.w) {
+    float2 uv0 = uv, du = (float2)(0.0f), dv = (float2)(0.0f);
+    /* Box footprint (render.normalmap_footprint = box): the pixel's box filter (the
+     * reference's) over the map, instead of trilinear's tent of twice the pixel. The box
+     * has the footprint's extent along u and v, w_u = |(∂u/∂x, ∂u/∂y)|, w_v likewise (the
+     * parallelogram's RMS width: its sides when axis-aligned); at the finest level where it
+     * overlaps ≤ NM_BOX_TEXELS texels, each texel weighs its overlap (exact for the level's
+     * piecewise-constant NDFs), and its lobes enter the mixture as they are — no blend of
+     * unaligned lobes' α·r (eq 24) into one broad lobe between two texels' NDFs. Level 0 has
+     * no lobes: a grid of bilinear-normal taps over the parallelogram, as the reference
+     * samples it. */
+    int box = info.w && bp[NM_FOOT_SLOT] > 0.5f;
+    int nbx = 0, bidx[NM_BOX_TEXELS];
+    float bw[NM_BOX_TEXELS];
+    if (info.w && box) {
+        float4 duv = gduv[gid];
+        float side = (float)nm_levels[info.x].y;
+        float wu = length(duv.xz) * side, wv = length(duv.yw) * side;
+        float cu = uv.x - floor(uv.x), cv = 1.0f - (uv.y - floor(uv.y));
+        int lev = (int)clamp(floor(log2(fmax(fmin(wu, wv), 1e-18f))), 0.0f,
+                             (float)(info.y - 1));
+        int iu[NM_BOX_TEXELS + 1], iv[NM_BOX_TEXELS + 1];
+        float au[NM_BOX_TEXELS + 1], av[NM_BOX_TEXELS + 1];
+        int nu = 0, nv = 0;
+        for (; lev < info.y; ++lev) {
+            int m = nm_levels[info.x + lev].y;
+            float sc = exp2(-(float)lev);
+            nu = nm_box_axis(cu * (float)m, wu * sc, m, NM_BOX_TEXELS, iu, au);
+            nv = nu > NM_BOX_TEXELS ? 0
+                 : nm_box_axis(cv * (float)m, wv * sc, m, NM_BOX_TEXELS / nu, iv, av);
+            if (nu <= NM_BOX_TEXELS && nv <= NM_BOX_TEXELS / nu) break;
+        }
+        lev = min(lev, info.y - 1);
+        l0 = l1 = info.x + lev;
+        if (lev == 0) {          /* bilinear normals on an nx × ny grid over the parallelogram */
+            nx = clamp((int)ceil(2.0f * length(duv.xy) * side - 1e-3f), 1, NM_BOX_L0_TAPS);
+            int ny = clamp((int)ceil(2.0f * length(duv.zw) * side - 1e-3f), 1, NM_BOX_L0_TAPS);
+            ntap = nx * ny;
+            du = duv.xy / (float)nx;
+            dv = duv.zw / (float)ny;
+            uv0 = uv - 0.5f * (duv.xy + duv.zw) + 0.5f * (du + dv);
+        } else {
+            int m = nm_levels[l0].y;
+            for (int b = 0; b < nv; ++b)
+                for (int a = 0; a < nu; ++a) {
+                    bidx[nbx] = iv[b] * m + iu[a];
+                    bw[nbx] = av[b] * au[a];
+                    ++nbx;
+                }
+        }
+    } else if (info.w) {
         float4 duv = gduv[gid];
         float side = (float)nm_levels[info.x].y;
         float lx = length(duv.xy) * side, ly = length(duv.zw) * side;
@@ -29,6 +82,7 @@
             du = lx >= ly ? duv.xy : duv.zw;
             uv0 = uv - du * (0.5f - 0.5f / (float)ntap);
             du /= (float)ntap;
+            nx = ntap;
         }
         l0 = (int)floor(lod);
         l1 = min(l0 + 1, info.y - 1);
@@ -57,10 +111,22 @@
     float g[4 * NM_MAX_SH4];
     for (int k = 0; k < 4 * k4; ++k) g[k] = 0.0f;
 #endif
-    if (info.w) {
+    if (nbx > 0) {                      /* box footprint above level 0: texels by overlap */
+        int4 lv = nm_levels[l0];
+        mean_t = (float3)(0.0f);
+        for (int t = 0; t < nbx; ++t) {
+            mean_t += bw[t] * nm_data[lv.z + bidx[t]].xyz;
+#if NM_FILTER == NM_SH
+            for (int c = 0; c < k4; ++c) {
+                float4 v = bw[t] * nm_data[lv.w + bidx[t] * k4 + c];
+                g[4 * c] += v.x; g[4 * c + 1] += v.y; g[4 * c + 2] += v.z; g[4 * c + 3] += v.w;
+            }
+#endif
+        }
+    } else if (info.w) {
         mean_t = (float3)(0.0f);
         for (int k = 0; k < ntap; ++k) {
-            float2 uvk = uv0 + (float)k * du;
+            float2 uvk = uv0 + (float)(k % nx) * du + (float)(k / nx) * dv;
             mean_t += nm_trilinear(nm_data, nm_levels, l0, l1, f, 1, 1, 0, uvk).xyz;
 #if NM_FILTER == NM_VMF
             if (at0) {
@@ -98,9 +164,8 @@
 
     /* The pixel's specular lobes: axis (world), weight, Blinn–Phong exponent e with its
      * normalisation, microfacet roughness a with its D amplitude (nm_shade.h). */
-    float3 ax[NM_MAX_LOBES + NM_MAX_L0];
-    float4 lp[NM_MAX_LOBES + NM_MAX_L0];        /* (weight, e, norm, a); amp in la */
-    float la[NM_MAX_LOBES + NM_MAX_L0];
+    float4 ax[NM_MAX_AX];         /* axis (world), D amplitude (microfacet) */
+    float4 lp[NM_MAX_AX];         /* (weight, e, norm, a) */
     int nlob = 0;
     float bnorm = 0.25f * (s + 2.0f) / (s + 1.0f) * NM_INV_2PI;   /* × (s′ + 1): eq 20 */
 #if NM_FILTER == NM_VMF
@@ -116,20 +181,22 @@
         mean1 = to_world(mean_t - (1.0f - f) * s0 / (float)ntap, T, B, N);
     }
     if (!info.w) {
-        ax[0] = N; lp[0] = (float4)(1.0f, s, bnorm * (s + 1.0f), s); la[0] = 1.0f; nlob = 1;
+        ax[0] = (float4)(N, 1.0f); lp[0] = (float4)(1.0f, s, bnorm * (s + 1.0f), s); nlob = 1;
     } else {
         for (int k = 0; at0 && k < n0c; ++k) {               /* level 0: bilinear normals */
             float3 nk = to_world(n0s[k].yzw, T, B, N);
             float ln = length(nk);
             if (n0s[k].x <= 0.0f || ln <= 0.0f) continue;
-            ax[nlob] = nk / ln;
+            ax[nlob] = (float4)(nk / ln, 1.0f);
             lp[nlob] = (float4)((1.0f - f) * (n0s[k].x / (float)ntap), s, bnorm * (s + 1.0f), s);
-            la[nlob] = 1.0f;
             ++nlob;
         }
         n0l = nlob;
-        for (int j = 0; j < nl; ++j) {
-            float4 t = lob[j];
+        int lvx = nm_levels[l0].x;
+        for (int j = 0; j < (nbx > 0 ? nbx * nl : nl); ++j) {
+            /* box: texel j / nl's lobe j % nl, weighted by its overlap */
+            float4 t = nbx > 0 ? bw[j / nl] * nm_data[lvx + bidx[j / nl] * info.z + j % nl]
+                               : lob[j];
             if (t.x <= 0.0f) continue;
             float3 r = t.yzw / t.x;
             float lr = length(r);
@@ -137,9 +204,8 @@
             float kappa = lr >= 1.0f ? 1e30f : (3.0f * lr - lr * lr * lr) / (1.0f - lr * lr);
             float sp = kappa > 1e20f ? s : kappa * s / (kappa + s);          /* eq 20 */
             float a2 = s * s + 2.0f / kappa;                                   /* eq 21 */
-            ax[nlob] = normalize(to_world(r / lr, T, B, N));
+            ax[nlob] = (float4)(normalize(to_world(r / lr, T, B, N)), s * s / a2);
             lp[nlob] = (float4)(t.x, sp, bnorm * (sp + 1.0f), sqrt(a2));
-            la[nlob] = s * s / a2;
             ++nlob;
         }
     }
@@ -162,7 +228,7 @@
             a = sqrt(a2); amp = s * s / a2;
         }
 #endif
-        ax[0] = nbar; lp[0] = (float4)(1.0f, e, nrm, a); la[0] = amp; nlob = 1;
+        ax[0] = (float4)(nbar, amp); lp[0] = (float4)(1.0f, e, nrm, a); nlob = 1;
     }
 #endif
 
@@ -193,8 +259,8 @@
     }
     if (env_on) {
         for (int j = 0; j < nlob; ++j)
-            acc += lp[j].x * nm_spec_env(m, ks, model, ax[j], o, lp[j].y, lp[j].z, lp[j].w,
-                                         la[j], T, B, N, &vis, pyr, pyr_off, pyr_res, pyr_lam,
+            acc += lp[j].x * nm_spec_env(m, ks, model, ax[j].xyz, o, lp[j].y, lp[j].z, lp[j].w,
+                                         ax[j].w, T, B, N, &vis, pyr, pyr_off, pyr_res, pyr_lam,
                                          pyr_n, pyr_log_ratio, env_mean.xyz, pyr_pts, n_pts,
                                          pyr_raw, raw_n, env_scale);
     }
@@ -252,13 +318,13 @@
         {
 #if NM_FILTER == NM_VMF
             diff = fmax(dot(mean1, i), 0.0f);
-            for (int j = 0; j < n0l; ++j) diff += lp[j].x * fmax(dot(ax[j], i), 0.0f);
+            for (int j = 0; j < n0l; ++j) diff += lp[j].x * fmax(dot(ax[j].xyz, i), 0.0f);
 #else
             diff = fmax(dot(nbar, i), 0.0f);
 #endif
             for (int j = 0; j < nlob; ++j)
-                spec += lp[j].x * nm_spec(m, ks, model, ax[j], o, i, lp[j].y, lp[j].z,
-                                          lp[j].w, la[j]);
+                spec += lp[j].x * nm_spec(m, ks, model, ax[j].xyz, o, i, lp[j].y, lp[j].z,
+                                          lp[j].w, ax[j].w);
         }
         acc += (kd * (diff * MF_INV_PI) + spec) * E;
     }
