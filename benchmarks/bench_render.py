@@ -11,11 +11,13 @@ the shading pass on 2 cores:
   grazing angle, anisotropic footprint up to 8 taps), and a full-frame variant of it (the plane
   ×8 with the same texel density: every pixel shaded).
 - Issue 17, `transport` (Green06, 1 Gaussian): green06's speed scene (10 242-vertex GGX ball +
-  10 201-vertex Lambert floor = 20 443 vertices, studio map through the real envmap stage), and
-  the same with the floor glossy too (all 20 443 vertices carry Gaussians). The Gaussians are
+  10 201-vertex Lambert floor = 20 443 vertices, studio map through the real envmap stage), the
+  same with the floor glossy too (all 20 443 vertices carry Gaussians), and that under the
+  sky_sun map (its sun: the point set, shaded with SSDF shadows). The Gaussians are
   synthetic mirror lobes in the stage's artifact format (benchmarks/_scenes.py
-  `write_mirror_transport`): the fit of 20k vertices takes minutes; the kernel's cost depends
-  on the frame, the view set and which views carry weight, not on the fitted values.
+  `write_mirror_transport`), the SSDF data synthetic of the visibility stage's size: fitting
+  and tracing 20k vertices take minutes; the kernel's cost depends on the frame, the view set,
+  which views carry weight and the data's sizes, not on the fitted values.
 
 Frame time = the minimum over warm launches of wall-clock (upload-free: the G-buffer stays on
 the device, as a rasteriser's would; the kernel build and a first launch happen before the
@@ -96,14 +98,22 @@ def bench_vmf(work: Path, repeats=REPEATS) -> dict:
     return out
 
 
+#: transport cases: (label, floor glossy, config overrides)
+TRANSPORT_CASES = (("green06 speed scene", False, []),
+                   ("every vertex glossy", True, []),
+                   ("every vertex glossy, sky_sun", True,
+                    ["envmap.environment=../data_samples/sky_sun.exr"]))
+
+
 def bench_transport(work: Path, repeats=REPEATS) -> dict:
-    """Issue 17: `transport` on green06's 20 443-vertex speed scene at 512², floor Lambert (as
-    green06) and floor glossy."""
+    """Issue 17: `transport` on green06's 20 443-vertex speed scene at 512² under the studio map,
+    floor Lambert (as green06) and floor glossy, and the glossy one under sky_sun (its sun is
+    the envmap stage's point set: SSDF-shadowed delta lights in the diffuse part)."""
     from benchmarks._scenes import transport_scene
     out = {}
-    for case, glossy in (("green06 speed scene", False), ("every vertex glossy", True)):
+    for case, glossy, extra in TRANSPORT_CASES:
         t0 = time.perf_counter()
-        r, fr, nv = transport_scene(work / "transport", glossy_floor=glossy)
+        r, fr, nv = transport_scene(work / "transport", glossy_floor=glossy, extra=extra)
         setup = time.perf_counter() - t0
         out[case] = {**_shade_timing(r, "transport", r.upload_frame(fr), repeats),
                      "setup_s": setup, "vertices": nv}
