@@ -4,7 +4,13 @@
  *   lookup  trilinear in the pixel's texture footprint (isotropic level log2 of the longer UV
  *           derivative in texels, or N taps along the longer one; sgpipe.scene.footprint), of
  *           α_j and α_j·r_j (eq 24), then r = αr/α, κ = (3|r| − |r|³)/(1 − |r|²), μ = r/|r|
- *           (sgpipe.normalmap.vmf.lookup); the SH method's γ_lm and the mean normal n̄ likewise
+ *           (sgpipe.normalmap.vmf.lookup); the SH method's γ_lm and the mean normal n̄ likewise.
+ *           Box footprint (render.normalmap_footprint: box; nm_brdf slot NM_FOOT_SLOT): the
+ *           reference's box pixel filter — the footprint's box of widths w_u = |∂u/∂(x, y)|,
+ *           w_v = |∂v/∂(x, y)| (texels), at the finest level ℓ where it overlaps ≤ NM_BOX_TEXELS
+ *           texels, NDF(pixel) = Σ_t A_t/(w_u w_v) NDF_t (A_t: the box's overlap with texel t,
+ *           exact for the level's piecewise-constant NDFs), every texel's J lobes kept apart
+ *           (α_j ← A_t α_j/(w_u w_v)); level 0: a grid of ≤ NM_BOX_L0_TAPS² bilinear normals
  *   vmf     per lobe the material's specular lobe about μ_j with the convolved parameter:
  *           Blinn–Phong s′ = κs/(κ+s) (eq 20, normalised (s′+1)/(2π) and scaled by the
  *           material's ks (s+2)/(8π)·2π/(s+1)), Beckmann α′ = √(α² + 2/κ), Cook–Torrance

@@ -38,7 +38,7 @@
         float side = (float)nm_levels[info.x].y;
         float wu = length(duv.xz) * side, wv = length(duv.yw) * side;
         float cu = uv.x - floor(uv.x), cv = 1.0f - (uv.y - floor(uv.y));
-        int lev = (int)clamp(floor(log2(fmax(fmin(wu, wv), 1e-18f))), 0.0f,
+        int lev = (int)clamp(floor(log2(fmax(fmin(wu, wv), 1e-18f))) - 1.0f, 0.0f,
                              (float)(info.y - 1));
         int iu[NM_BOX_TEXELS + 1], iv[NM_BOX_TEXELS + 1];
         float au[NM_BOX_TEXELS + 1], av[NM_BOX_TEXELS + 1];
