@@ -99,7 +99,8 @@ def subject_scene(subject: str, minification: float, size: int, work: Path) -> d
 
 
 def build_config(scene: dict, normal_map: Path, methods: list[str], *, lobes: int, spp: int,
-                 material: dict = MATERIAL, light_scale: float = 1.0, taps: int = 8):
+                 material: dict = MATERIAL, light_scale: float = 1.0, taps: int = 8,
+                 footprint: str = "trilinear"):
     """A validated root Config (through the schema, as a YAML file would be)."""
     from sgpipe.config.root import Config
     from sgpipe.config.schema import Context, build
@@ -112,6 +113,7 @@ def build_config(scene: dict, normal_map: Path, methods: list[str], *, lobes: in
         "normalmap": {"lobes": int(lobes)},
         "render": {"camera": scene["camera"], "methods": list(methods), "spp": spp,
                    "background": False, "supersample": 1, "normalmap_max_taps": taps,
+                   "normalmap_footprint": footprint,
                    "lights": [{"type": "directional", "direction": list(scene["light"]),
                                "intensity": [IRRADIANCE * light_scale] * 3}]},
     }
@@ -156,7 +158,7 @@ def _score(img, ref, mask) -> dict:
 
 
 def fig2_cell(map_name: str, subject: str, minification: float, *, size: int, spp: int,
-              out: Path, lobes=LOBES) -> dict:
+              out: Path, lobes=LOBES, footprint: str = "trilinear") -> dict:
     """Every column of one (map, subject, minification) cell: {column: {image, psnr, flip} or
     {error}, "reference": {image}}."""
     nmap = DATA / MAPS[map_name]
@@ -167,7 +169,7 @@ def fig2_cell(map_name: str, subject: str, minification: float, *, size: int, sp
     # the default lobe count renders the reference and the original baselines with it
     main = [b for b in ("toksvig", "normals_mip") if b in cols]
     r = render(build_config(scene, nmap, ["vmf", *main, "reference"], lobes=DEFAULT_LOBES,
-                            spp=spp), runs / f"J{DEFAULT_LOBES}")
+                            spp=spp, footprint=footprint), runs / f"J{DEFAULT_LOBES}")
     if "error" in r:
         return {c: {"error": r["error"]} for c in cols + ["reference"]}
     ref, mask = r["reference"], r["_mask"]
@@ -181,26 +183,28 @@ def fig2_cell(map_name: str, subject: str, minification: float, *, size: int, sp
             continue
         if not (runs / f"J{j}" / "fit").is_dir():    # the same fit: reuse it (skipped as done)
             shutil.copytree(runs / f"J{DEFAULT_LOBES}" / "fit", runs / f"J{j}" / "fit")
-        rj = render(build_config(scene, nmap, ["vmf"], lobes=j, spp=spp), runs / f"J{j}")
+        rj = render(build_config(scene, nmap, ["vmf"], lobes=j, spp=spp, footprint=footprint),
+                    runs / f"J{j}")
         res[f"vmf{j}"] = rj if "error" in rj else _score(rj["vmf"], ref, mask)
     for b in cols:              # the later baselines on their own: a failure stays theirs
         if b in res or b.startswith("vmf"):
             continue
-        rb = render(build_config(scene, nmap, [b], lobes=DEFAULT_LOBES, spp=spp),
-                    runs / f"J{DEFAULT_LOBES}")
+        rb = render(build_config(scene, nmap, [b], lobes=DEFAULT_LOBES, spp=spp,
+                                 footprint=footprint), runs / f"J{DEFAULT_LOBES}")
         res[b] = rb if "error" in rb else _score(rb[b], ref, mask)
     return res
 
 
 def fig2(out: Path, subjects, *, size: int, spp: int, minifications=MINIFICATIONS,
-         lobes=LOBES, log=print) -> dict:
+         lobes=LOBES, log=print, footprint: str = "trilinear") -> dict:
     """{(map, subject): {minification: cell}}."""
     table = {}
     for map_name, subject in subjects:
         table[(map_name, subject)] = {}
         for m in minifications:
             t0 = time.perf_counter()
-            cell = fig2_cell(map_name, subject, m, size=size, spp=spp, out=out, lobes=lobes)
+            cell = fig2_cell(map_name, subject, m, size=size, spp=spp, out=out, lobes=lobes,
+                             footprint=footprint)
             table[(map_name, subject)][m] = cell
             log(f"[han07] Fig 2 {map_name} {subject} {m:g}×: " + ", ".join(
                 f"{c} {v['psnr']:.2f}" if "psnr" in v else f"{c} missing"
@@ -276,24 +280,34 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true",
                     help="Smoke run (≤ 60 s): grooves plane at 16× only, 32², 64 spp; Fig 7 on "
                          "one cell.")
+    ap.add_argument("--footprint", choices=("trilinear", "box"), default="trilinear",
+                    help="render.normalmap_footprint of every normal-map method.")
+    ap.add_argument("--subjects", default=None,
+                    help="Fig 2 only, for these map:subject pairs (e.g. grooves:sphere,"
+                         "bumps:plane) at --minifications; writes <out>/han07_fig2.md and "
+                         "<out>/han07_fig2.json, never the report.")
+    ap.add_argument("--minifications", default=",".join(f"{m:g}" for m in MINIFICATIONS),
+                    help="With --subjects: comma-separated minifications.")
     a = ap.parse_args(argv)
     t0 = time.perf_counter()
     a.out.mkdir(parents=True, exist_ok=True)
-    if a.results is None:
-        a.results = a.out / "han07.md" if a.quick else ROOT / "docs" / "results" / "han07.md"
 
     def log(msg):
         print(msg, file=sys.stderr, flush=True)
 
+    if a.subjects:
+        return fig2_only(a, log)
+    if a.results is None:
+        a.results = a.out / "han07.md" if a.quick else ROOT / "docs" / "results" / "han07.md"
     f7 = ndf.fig7(a.out, full=not a.quick, log=log)
     f3 = ndf.fig3_ndf(full=not a.quick)
     size, spp = (32, 64) if a.quick else (64, 512)
     if a.quick:
         table = fig2(a.out, [("grooves", "plane")], size=size, spp=spp, minifications=(16,),
-                     lobes=(4, 8), log=log)
+                     lobes=(4, 8), log=log, footprint=a.footprint)
     else:
         table = fig2(a.out, [("grooves", "plane"), ("grooves", "sphere"), ("bumps", "plane")],
-                     size=size, spp=spp, log=log)
+                     size=size, spp=spp, log=log, footprint=a.footprint)
     f3r = None if a.quick else ndf.fig3_render(a.out, log=log)
     tg = targets(table)
     fig_dir = a.results.parent / "figures"
@@ -323,6 +337,41 @@ def main(argv: list[str] | None = None) -> int:
         log(f"[han07] target {'MET' if t['met'] else 'NOT MET'}: {t['name']} — {t['subject']}: "
             f"{t['value']}")
     log(f"[han07] wrote {a.results} in {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+def fig2_only(a, log) -> int:
+    """`--subjects`: the Fig 2 cells of the named map:subject pairs, their targets, a Markdown
+    table and JSON under <out>."""
+    from sgpipe.experiments.han07_report import _fig2_tables
+    t0 = time.perf_counter()
+    pairs = []
+    for item in a.subjects.split(","):
+        map_name, _, subject = item.strip().partition(":")
+        if map_name not in MAPS or subject not in ("plane", "sphere"):
+            raise SystemExit(f"--subjects: {item!r} is not map:subject with map in "
+                             f"{sorted(MAPS)} and subject plane or sphere")
+        pairs.append((map_name, subject))
+    mins = tuple(float(m) for m in a.minifications.split(","))
+    table = fig2(a.out, pairs, size=64, spp=512, minifications=mins, log=log,
+                 footprint=a.footprint)
+    tg = targets(table)
+    lines = [f"# Han07 Fig 2 cells (render.normalmap_footprint: {a.footprint})", "",
+             f"`python -m sgpipe.experiments.han07 --out {a.out} --subjects {a.subjects} "
+             f"--minifications {a.minifications} --footprint {a.footprint}` in "
+             f"{time.perf_counter() - t0:.0f} s; cells: surface display PSNR (dB) / LDR-ꟻLIP.",
+             ""] + _fig2_tables(table, columns()) + [
+             "| target | subject | value | met |", "|---|---|---|---|"] + [
+             f"| {t['name']} | {t['subject']} | {t['value']} | {'met' if t['met'] else 'no'} |"
+             for t in tg]
+    (a.out / "han07_fig2.md").write_text("\n".join(lines) + "\n")
+    summary = {f"{k[0]} {k[1]}": {f"{m:g}": {c: {x: v[x] for x in ("psnr", "flip", "error")
+                                                   if x in v}
+                                              for c, v in cell.items() if c != "reference"}
+                                  for m, cell in rows.items()} for k, rows in table.items()}
+    (a.out / "han07_fig2.json").write_text(json.dumps({"fig2": summary, "targets": tg},
+                                                      indent=1, default=float) + "\n")
+    log(f"[han07] wrote {a.out / 'han07_fig2.md'}")
     return 0
 
 
