@@ -88,11 +88,13 @@ SG_PARAMS = """
 #: ... what `transport` (Green06) takes next: per object (first vertex, first face, K, has data),
 #: the transport meshes' faces, the Gaussians, SH transfer vectors (whole, and the interreflected
 #: part alone), diffuse f_d, the light's SH coefficients (whole map, map minus the point set, the
-#: point set), the 92-view lookup tables (render.transport_data), then the accurate Γ_L chain.
+#: point set), the point set merged into small lights (direction, sharpness; energy), the 92-view
+#: lookup tables (render.transport_data), then the accurate Γ_L chain.
 TRANSPORT_PARAMS = """
     __global const int4 *tp_obj, __global const int *tp_faces, __global const float4 *tp_gauss,
     __global const float *tp_sh, __global const float *tp_sh_ind, __global const float4 *tp_fd,
     __global const float4 *tp_light_sh, const int tp_sh_n,
+    __global const float4 *tp_suns, const int tp_n_suns,
     __global const float4 *tp_vinv, __global const int4 *tp_vtri,
     __global const float4 *pyr, __global const int *pyr_off, __global const int *pyr_res,
     __global const float *pyr_lam, const int pyr_n, const float pyr_log_ratio,

@@ -85,6 +85,38 @@ def rgb_transfer(transfer) -> np.ndarray:
     return t
 
 
+#: point-set members within this angle of a brighter one merge into its small light
+MERGE_POINTS_DEG = 4.0
+#: the merged lights' sharpness range: a single point is a delta light to the SSDF horizon
+MAX_POINT_LAMBDA = 2.0e4
+
+
+def merge_points(dirs, energy, *, within_deg: float = MERGE_POINTS_DEG) -> np.ndarray:
+    """The point set (unit directions (K, 3), energies (K, 3)) as few small SG lights for the
+    diffuse sum: greedy from the brightest, every point within `within_deg` of the seed joins
+    it; a light's direction is the energy-weighted mean, its energy the sum, its sharpness
+    λ = 2/⟨ψ²⟩ from the members' energy-weighted squared angles ψ to it (an SG's ⟨ψ²⟩ is
+    2/λ), capped at MAX_POINT_LAMBDA. (M, 2, 4) float32 records (c, λ), (E, 0)."""
+    d = np.asarray(dirs, np.float64).reshape(-1, 3)
+    e = np.asarray(energy, np.float64).reshape(-1, 3)
+    w = e.mean(axis=1)
+    free = np.ones(len(d), bool)
+    cos_in = np.cos(np.radians(within_deg))
+    out = []
+    for seed in np.argsort(-w, kind="stable"):
+        if not free[seed]:
+            continue
+        mem = free & (d @ d[seed] >= cos_in)
+        free &= ~mem
+        c = (w[mem, None] * d[mem]).sum(0)
+        c = c / np.linalg.norm(c) if np.linalg.norm(c) > 0 else d[seed]
+        psi2 = np.arccos(np.clip(d[mem] @ c, -1.0, 1.0)) ** 2
+        mean_psi2 = (w[mem] * psi2).sum() / max(w[mem].sum(), 1e-30)
+        lam = MAX_POINT_LAMBDA if mean_psi2 <= 2.0 / MAX_POINT_LAMBDA else 2.0 / mean_psi2
+        out.append([[*c, lam], [*e[mem].sum(0), 0.0]])
+    return np.asarray(out, np.float32).reshape(-1, 2, 4)
+
+
 def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None,
                      points=None) -> dict:
     """Kernel arrays for per-object data `objects` (None, or dict with mu, sigma, w, transfer
@@ -92,9 +124,9 @@ def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None,
     indirect (X, 25, 3), the interreflected part of transfer, diffuse_rgb (3,), faces (F, 3))
     and SH light coefficients (n, 3) of the map, turned by `rotation` (3×3 world ← map, or
     None). `points`: the environment's point set (directions (K, 3) in the map's frame,
-    energies (K, 3)) that objects with SSDF visibility shade as delta lights: tp_light_sh holds
-    the whole map's coefficients, the map's minus the points' (Σ_k E_k Y(c_k)), and the
-    points'. tp_sh and tp_sh_ind are (X·25·3) floats, vertex-major, then coefficient, then RGB
+    energies (K, 3)) that objects with SSDF visibility shade as small lights (merge_points,
+    tp_suns, turned to world): tp_light_sh holds the whole map's coefficients, the map's minus
+    the points' (Σ_k E_k Y(c_k)), and the points'. tp_sh and tp_sh_ind are (X·25·3) floats, vertex-major, then coefficient, then RGB
     (the kernel's vload3 per coefficient)."""
     light_sh = np.asarray(light_sh, np.float64).reshape(-1, 3)
     pts_sh = np.zeros_like(light_sh)
@@ -104,6 +136,12 @@ def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None,
         pts_sh = sh_eval(np.asarray(points[0], np.float64), lmax).T @ np.asarray(points[1],
                                                                                np.float64)
     light_sh, pts_sh = rotate_sh(light_sh, rotation), rotate_sh(pts_sh, rotation)
+    suns, n_suns = np.zeros((1, 2, 4), np.float32), 0
+    if points is not None and len(points[0]):
+        suns = merge_points(*points)
+        n_suns = len(suns)
+        if rotation is not None:
+            suns[:, 0, :3] = suns[:, 0, :3] @ np.asarray(rotation, np.float32).T
     rows, faces, gauss, sh, ind, fd = [], [], [], [], [], []
     v0 = f0 = 0
     K = max([o["sigma"].shape[2] for o in objects if o is not None] or [1])
@@ -141,7 +179,8 @@ def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None,
     return dict(tp_obj=np.asarray(rows, np.int32), tp_faces=cat(faces, np.int32),
                 tp_gauss=cat(gauss, np.float32, 4), tp_sh=cat(sh, np.float32),
                 tp_sh_ind=cat(ind, np.float32), tp_fd=np.asarray(fd, np.float32),
-                tp_light_sh=L.reshape(-1, 4), tp_sh_n=n_sh,
+                tp_light_sh=L.reshape(-1, 4), tp_sh_n=n_sh, tp_suns=suns.reshape(-1, 4),
+                tp_n_suns=n_suns,
                 tp_vinv=vinv, tp_vtri=vtri)
 
 
@@ -198,6 +237,6 @@ def upload_transport(renderer, arrays: dict) -> None:
     renderer.static.update(dev)
 
 
-__all__ = ["MAX_GAUSSIANS", "view_tables", "sh_rotation_matrix", "rotate_sh", "pack_gaussians",
+__all__ = ["MAX_GAUSSIANS", "merge_points", "view_tables", "sh_rotation_matrix", "rotate_sh", "pack_gaussians",
            "rgb_transfer",
            "transport_arrays", "load_transport_objects", "attach_transport", "upload_transport"]

@@ -30,7 +30,8 @@ def test_light_sh_split_into_map_minus_points_and_points():
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
     energy = RNG.uniform(0.5, 4.0, size=(3, 3))
     R = rotation_matrix([0.2, 1.0, 0.3], 70.0)
-    L = transport_arrays([None], light, R, (dirs, energy))["tp_light_sh"][:, :3]
+    arrays = transport_arrays([None], light, R, (dirs, energy))
+    L = arrays["tp_light_sh"][:, :3]
     pts = sh_eval(dirs, 4).T @ energy
     np.testing.assert_allclose(L[:SH_COEFFS], rotate_sh(light, R), atol=2e-5)
     np.testing.assert_allclose(L[2 * SH_COEFFS:], rotate_sh(pts, R), atol=2e-5)
@@ -38,6 +39,11 @@ def test_light_sh_split_into_map_minus_points_and_points():
                                L[:SH_COEFFS], atol=2e-5)
     # the points' SH turned = the SH of the turned points (the kernel's world directions)
     np.testing.assert_allclose(L[2 * SH_COEFFS:], sh_eval(dirs @ R.T, 4).T @ energy, atol=2e-5)
+    # the small lights are turned too (three points far apart: three lights)
+    suns = arrays["tp_suns"].reshape(-1, 2, 4)
+    assert arrays["tp_n_suns"] == 3
+    got = sorted(map(tuple, np.round(suns[:, 0, :3], 5)))
+    np.testing.assert_allclose(got, sorted(map(tuple, np.round(dirs @ R.T, 5))), atol=2e-5)
     # no point set: the residual is the whole map
     L0 = transport_arrays([None], light)["tp_light_sh"][:, :3]
     np.testing.assert_allclose(L0[SH_COEFFS:2 * SH_COEFFS], light, atol=1e-6)
@@ -92,3 +98,24 @@ def test_sun_shadow_on_floor_matches_reference(tmp_path):
                                        surface=floor)["surface"]["display_psnr_db"]
     assert scores[True] >= 29.0, scores
     assert scores[True] >= scores[False] + 6.0, scores
+
+
+def test_merge_points_keeps_energy_and_sets_sharpness_from_spread():
+    """A sun spread over texels merges into one light: energy summed, direction the
+    energy-weighted mean, λ = 2/⟨ψ²⟩ (an SG of that λ has the same mean squared angle); a
+    point far away stays its own (delta: the λ cap)."""
+    from sgpipe.render.transport_data import MAX_POINT_LAMBDA, merge_points
+    c = np.array([0.0, 0.6, 0.8])
+    t = np.array([1.0, 0.0, 0.0])
+    psi = np.radians(1.0)
+    sun = [np.cos(psi) * c - np.sin(psi) * t, c, np.cos(psi) * c + np.sin(psi) * t]
+    far = np.array([0.0, -1.0, 0.0])
+    e = np.array([[1.0, 1.0, 1.0], [2.0, 2.0, 2.0], [1.0, 1.0, 1.0], [0.5, 0.4, 0.3]])
+    rec = merge_points(np.array([*sun, far]), e)
+    assert rec.shape == (2, 2, 4)
+    np.testing.assert_allclose(rec[0, 0, :3], c, atol=1e-6)
+    np.testing.assert_allclose(rec[0, 1, :3], [4.0, 4.0, 4.0], rtol=1e-6)
+    np.testing.assert_allclose(rec[0, 0, 3], 2.0 / (0.5 * psi ** 2), rtol=1e-4)
+    np.testing.assert_allclose(rec[1, 0, :3], far, atol=1e-7)
+    np.testing.assert_allclose(rec[1, 1, :3], e[3], rtol=1e-6)
+    assert rec[1, 0, 3] == np.float32(MAX_POINT_LAMBDA)

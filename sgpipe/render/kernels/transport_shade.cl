@@ -2,11 +2,12 @@
  *   glossy  Σ_k w_k · Γ_L(μ_k, 1/σ_k²)     (eq 4 integrated against the lighting, eq 1)
  *   diffuse f_d · Σ_j L_j t_j               (§6.1, shadowed PRT, 25 SH coefficients)
  * An object with SSDF visibility takes the environment's point set (the sun) out of its PRT:
- * the SH light is then the map minus the points, and each point k adds the delta light
- * f_d E_k max(0, n·c_k) f̂_h(θ_d(c_k)) with the SSDF's sharp horizon (as `sg` shades small
- * lights), because 25 coefficients cannot hold a point light's shadow; the points' share of
- * the interreflected transfer stays in SH (it is smooth). tp_light_sh: 25 rows of the whole
- * map, 25 of the map minus the points, 25 of the points alone (transport_data.py).
+ * the SH light is then the map minus the points, and the points, merged into small lights k
+ * (direction c_k, energy E_k, sharpness λ_k from their spread: transport_data.merge_points),
+ * add f_d E_k max(0, n·c_k) f̂_h(θ_d(c_k), λ_k), the SSDF horizon (eq 46) of an SG light (as
+ * `sg` shades small lights), because 25 coefficients cannot hold a sun's shadow; the points'
+ * share of the interreflected transfer stays in SH (it is smooth). tp_light_sh: 25 rows of the
+ * whole map, 25 of the map minus the points, 25 of the points alone (transport_data.py).
  * Per pixel, each vertex of the hit triangle gets its Gaussians interpolated across the three
  * views around the pixel's view direction, then the three are blended barycentrically
  * (transport.h, mirroring sgpipe.transport.interp). Green06's G(ω) = exp((ω·μ − 1)/σ²) is the
@@ -20,7 +21,6 @@
 #include "shading.h"   /* records.h, methods.h, the SSDF state Vis */
 #include "transport.h"
 
-#define TP_POINT_LAMBDA 2e4f   /* the point lights' sharpness for the SSDF horizon (f̂_h) */
 #define TP_HAS_INDIRECT 2      /* tp_obj.w bit: tp_sh_ind holds the interreflected transfer */
 
 __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
@@ -60,7 +60,7 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
             Vis vis;
             vis_init(&vis, objs[gobj[gid]], OBJF_MAXD(objf[gobj[gid]]), tri, gbary[gid],
                      vfaces, coeffs, ssdf_data, !(flags & FLAG_NO_VISIBILITY));
-            int split = vis.has && n_pts > 0;
+            int split = vis.has && tp_n_suns > 0;
             __global const float4 *L = tp_light_sh + (split ? 25 : 0);
             int ind = split && (to.w & TP_HAS_INDIRECT);
             /* the transfer vector is linear: blend it, then one dot product with the light
@@ -77,11 +77,11 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
             }
             if (split) {
                 float3 N = gnrm[gid].xyz, T = gtan[gid].xyz, B = cross(N, T);
-                for (int k = 0; k < n_pts; ++k) {
-                    float3 c = to_local(pyr_pts[2 * k].xyz, T, B, N);
+                for (int k = 0; k < tp_n_suns; ++k) {
+                    float4 a = tp_suns[2 * k];
+                    float3 c = to_local(a.xyz, T, B, N);
                     if (c.z > 0.0f)
-                        rd += pyr_pts[2 * k + 1].xyz
-                              * (c.z * fh_hat(vis_theta(&vis, c), TP_POINT_LAMBDA));
+                        rd += tp_suns[2 * k + 1].xyz * (c.z * fh_hat(vis_theta(&vis, c), a.w));
                 }
             }
             rd *= tp_fd[gobj[gid]].xyz * env_scale;
