@@ -100,7 +100,8 @@ TRANSPORT_PARAMS = """
     __global const float *pyr_lam, const int pyr_n, const float pyr_log_ratio,
     const float4 env_mean,
     __global const float4 *pyr_pts, const int n_pts,
-    __global const float4 *pyr_raw, const int raw_n, const float env_scale"""
+    __global const float4 *pyr_raw, const int raw_n, const float env_scale,
+    __global const float4 *lights, const int n_lights"""
 
 #: ... what the normal-map methods (`vmf`, `normals_mip`, `toksvig`, `engine_bake`, `nm_sh`;
 #: Han07) take next: the packed pyramids and per-object BRDF records (render.normalmap_data),

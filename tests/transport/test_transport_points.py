@@ -3,7 +3,8 @@ visibility shades the environment's point set (the sun) as delta lights with the
 horizon, the SH light being the map minus the points (render.transport_data.transport_arrays).
 Proven on the SH split itself (whole = residual + points, the points' coefficients Σ E_k Y(c_k))
 and on a ball's sun shadow on a Lambert floor against the Monte Carlo reference: the 25-term
-PRT alone blurs the shadow away."""
+PRT alone blurs the shadow away. Local lights (render.lights) through the same SSDF horizon and
+the Gaussians' SG inner products, against the reference."""
 
 import textwrap
 
@@ -60,7 +61,7 @@ scene:
     - {{name: floor, mesh: floor.obj, material: floor}}
 fit:
   materials:
-    - {{name: ball, model: lambert, params: {{kd: [0.3, 0.3, 0.3]}}}}
+    - {{name: ball, {ball}}}
     - {{name: floor, model: lambert, params: {{kd: [0.5, 0.5, 0.5]}}}}
 envmap: {{environment: {env}, cube_resolution: 32}}
 visibility: {{trace_resolution: 32, resolution: 16, pca_terms: 8, sphere_subdivisions: 1}}
@@ -71,7 +72,8 @@ render:
   spp: 64
   supersample: 2
   compare_to: null
-"""
+{extra}"""
+LAMBERT_BALL = "model: lambert, params: {kd: [0.3, 0.3, 0.3]}"
 
 
 @pytest.mark.opencl
@@ -83,7 +85,8 @@ def test_sun_shadow_on_floor_matches_reference(tmp_path):
     from sgpipe.stages import envmap, fit, render, transport, visibility
     write_floor(tmp_path / "floor.obj", 49)
     p = tmp_path / "sun.yaml"
-    p.write_text(textwrap.dedent(CONFIG.format(env=SAMPLES / "sky_sun.exr")))
+    p.write_text(textwrap.dedent(CONFIG.format(env=SAMPLES / "sky_sun.exr", ball=LAMBERT_BALL,
+                                               extra="")))
     out = tmp_path / "out"
     scores = {}
     for split in (True, False):
@@ -119,3 +122,38 @@ def test_merge_points_keeps_energy_and_sets_sharpness_from_spread():
     np.testing.assert_allclose(rec[1, 0, :3], far, atol=1e-7)
     np.testing.assert_allclose(rec[1, 1, :3], e[3], rtol=1e-6)
     assert rec[1, 0, 3] == np.float32(MAX_POINT_LAMBDA)
+
+
+LIGHTS = """  environment_exposure: -30
+  lights:
+    - {type: directional, direction: [0.6, 0.7, 0.3], intensity: [3, 3, 3]}
+    - {type: point, position: [-1.5, 2.0, 1.5], intensity: [8, 6, 4], radius: 0.05}
+"""
+
+
+@pytest.mark.opencl
+def test_local_lights_match_reference(tmp_path):
+    """render.lights in `transport`: a glossy GGX ball on a Lambert floor lit only by a
+    directional and a point light (the environment 2^-30 dark). Glossy: each Gaussian w·⟨G, L⟩;
+    diffuse: f_d E max(0, n·l) with the SSDF horizon. Surface display PSNR against the
+    reference ≥ 34 dB (measured 38.0 dB); without the lights the frame is black. The ball's
+    five brightest pixels within 20 % of the reference's (measured −12 %: one Gaussian's
+    peak under GGX's)."""
+    from sgpipe.stages import envmap, fit, render, transport, visibility
+    write_floor(tmp_path / "floor.obj", 49)
+    p = tmp_path / "lights.yaml"
+    ball = "model: ggx, params: {alpha: 0.25, kd: [0.2, 0.15, 0.1], ks: 0.7}"
+    p.write_text(textwrap.dedent(CONFIG.format(env=SAMPLES / "sky_sun.exr", ball=ball,
+                                               extra=LIGHTS)))
+    out = tmp_path / "out"
+    cfg = load_config(p)
+    for stage in (fit, envmap, visibility, transport, render):
+        stage.run(cfg, out)
+    gb = read_gbuffer(out / "render")
+    surf = surface_mask(gb.object_id)
+    ref, img = read_image(out / "render", "reference"), read_image(out / "render", "transport")
+    c = compare_images(img, ref, exposure=0.0, surface=surf)["surface"]["display_psnr_db"]
+    ball_px = surf & (gb.object_id == 0)
+    top = np.sort(img[ball_px].mean(-1))[-5:].mean() / np.sort(ref[ball_px].mean(-1))[-5:].mean()
+    assert c >= 34.0, c
+    assert 0.8 <= top <= 1.2, top

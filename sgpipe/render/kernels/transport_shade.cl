@@ -12,7 +12,8 @@
  * views around the pixel's view direction, then the three are blended barycentrically
  * (transport.h, mirroring sgpipe.transport.interp). Green06's G(ω) = exp((ω·μ − 1)/σ²) is the
  * SG of sg.h with p = μ, λ = 1/σ², amplitude w, so ∫ w G L dω = w Γ_L(μ, 1/σ²) — one accurate
- * pyramid lookup (cubemap.h gamma_lookup_acc + the point set), as `sg` does.
+ * pyramid lookup (cubemap.h gamma_lookup_acc + the point set), as `sg` does. Local lights
+ * (render.lights) too: see tp_light_glossy / tp_light_diffuse.
  * tp_obj per object: (first vertex row, first face, Gaussians K, has data). */
 #include "sg.h"
 #include "ssdf.h"
@@ -22,6 +23,25 @@
 #include "transport.h"
 
 #define TP_HAS_INDIRECT 2      /* tp_obj.w bit: tp_sh_ind holds the interreflected transfer */
+
+/* Local lights (render.lights) as the SGs of light_sg (sg's eq 42–43 form; distant-light
+ * transport as the Gaussians were fitted, visibility by the SSDF): glossy w·⟨G, L⟩ per Gaussian
+ * (a light sharper than SHARP_LIGHT: w·G(l)·∫L), diffuse f_d E max(0, n·l) f̂_h(θ_d(l), λ_L)
+ * (sharp) or f_d (C* ⊗ L)·V^d (eq 42). */
+inline float3 tp_light_diffuse(SG Lw, float3 T, float3 B, float3 N, const Vis *vis) {
+    SG L = sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu);
+    if (L.lam >= SHARP_LIGHT)
+        return L.p.z > 0.0f ? sg_integral(L) * (L.p.z * fh_hat(vis_theta(vis, L.p), L.lam))
+                            : (float3)(0.0f);
+    SG g = sg_product(L, sg_clamped_cosine((float3)(0.0f, 0.0f, 1.0f)));
+    return sg_dot_visibility(g, vis_theta(vis, g.p));
+}
+
+inline float3 tp_light_glossy(float3 m, float lam, SG L) {
+    if (L.lam >= SHARP_LIGHT)
+        return exp(lam * (dot(m, L.p) - 1.0f)) * sg_integral(L);
+    return sg_inner(sg_make(m, lam, (float3)(1.0f)), L);
+}
 
 __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
 {
@@ -35,7 +55,9 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
         int vert[3] = {to.x + f[0], to.x + f[1], to.x + f[2]};
         float2 bc = gbary[gid];
         float bt[3] = {1.0f - bc.x - bc.y, bc.x, bc.y};
-        if (!(flags & FLAG_NO_ENV_SPECULAR)) {
+        float3 x = gpos[gid].xyz;
+        int env_spec = !(flags & FLAG_NO_ENV_SPECULAR);
+        if (env_spec || n_lights > 0) {
             int iv[3];
             float bv[3];
             tp_nearest_views(gview[gid].xyz, tp_vinv, tp_vtri, iv, bv);
@@ -50,41 +72,50 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
                 tp_blend(mu, sig, w, bt, &m, &s, &ww);
                 if (s <= 0.0f || (ww.x == 0.0f && ww.y == 0.0f && ww.z == 0.0f)) continue;
                 float lam = 1.0f / (s * s);
-                rs += ww * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam, pyr_n,
-                                                         pyr_log_ratio, env_mean.xyz, pyr_raw,
-                                                         raw_n, m, lam)
-                                        + gamma_points(pyr_pts, n_pts, m, lam));
+                if (env_spec)
+                    rs += ww * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam,
+                                                             pyr_n, pyr_log_ratio, env_mean.xyz,
+                                                             pyr_raw, raw_n, m, lam)
+                                            + gamma_points(pyr_pts, n_pts, m, lam));
+                for (int l = 0; l < n_lights; ++l)
+                    rs += ww * tp_light_glossy(m, lam, light_sg(lights[2 * l], lights[2 * l + 1], x));
             }
         }
-        if (!(flags & FLAG_NO_ENV_DIFFUSE)) {
+        int env_diff = !(flags & FLAG_NO_ENV_DIFFUSE);
+        if (env_diff || n_lights > 0) {
             Vis vis;
             vis_init(&vis, objs[gobj[gid]], OBJF_MAXD(objf[gobj[gid]]), tri, gbary[gid],
                      vfaces, coeffs, ssdf_data, !(flags & FLAG_NO_VISIBILITY));
+            float3 N = gnrm[gid].xyz, T = gtan[gid].xyz, B = cross(N, T);
             int split = vis.has && tp_n_suns > 0;
-            __global const float4 *L = tp_light_sh + (split ? 25 : 0);
-            int ind = split && (to.w & TP_HAS_INDIRECT);
-            /* the transfer vector is linear: blend it, then one dot product with the light
-               per colour channel (interreflected transfer is RGB: tp_sh is (X, 25, 3)) */
-            for (int j = 0; j < tp_sh_n; ++j) {
-                float3 t = bt[0] * vload3(vert[0] * 25 + j, tp_sh)
-                           + bt[1] * vload3(vert[1] * 25 + j, tp_sh)
-                           + bt[2] * vload3(vert[2] * 25 + j, tp_sh);
-                rd += t * L[j].xyz;
-                if (ind)
-                    rd += (bt[0] * vload3(vert[0] * 25 + j, tp_sh_ind)
-                           + bt[1] * vload3(vert[1] * 25 + j, tp_sh_ind)
-                           + bt[2] * vload3(vert[2] * 25 + j, tp_sh_ind)) * tp_light_sh[50 + j].xyz;
-            }
-            if (split) {
-                float3 N = gnrm[gid].xyz, T = gtan[gid].xyz, B = cross(N, T);
-                for (int k = 0; k < tp_n_suns; ++k) {
+            if (env_diff) {
+                __global const float4 *L = tp_light_sh + (split ? 25 : 0);
+                int ind = split && (to.w & TP_HAS_INDIRECT);
+                /* the transfer vector is linear: blend it, then one dot product with the light
+                   per colour channel (interreflected transfer is RGB: tp_sh is (X, 25, 3)) */
+                for (int j = 0; j < tp_sh_n; ++j) {
+                    float3 t = bt[0] * vload3(vert[0] * 25 + j, tp_sh)
+                               + bt[1] * vload3(vert[1] * 25 + j, tp_sh)
+                               + bt[2] * vload3(vert[2] * 25 + j, tp_sh);
+                    rd += t * L[j].xyz;
+                    if (ind)
+                        rd += (bt[0] * vload3(vert[0] * 25 + j, tp_sh_ind)
+                               + bt[1] * vload3(vert[1] * 25 + j, tp_sh_ind)
+                               + bt[2] * vload3(vert[2] * 25 + j, tp_sh_ind))
+                              * tp_light_sh[50 + j].xyz;
+                }
+                for (int k = 0; split && k < tp_n_suns; ++k) {
                     float4 a = tp_suns[2 * k];
                     float3 c = to_local(a.xyz, T, B, N);
                     if (c.z > 0.0f)
                         rd += tp_suns[2 * k + 1].xyz * (c.z * fh_hat(vis_theta(&vis, c), a.w));
                 }
+                rd *= env_scale;
             }
-            rd *= tp_fd[gobj[gid]].xyz * env_scale;
+            for (int l = 0; l < n_lights; ++l)
+                rd += tp_light_diffuse(light_sg(lights[2 * l], lights[2 * l + 1], x), T, B, N,
+                                       &vis);
+            rd *= tp_fd[gobj[gid]].xyz;
         }
     }
     out[gid] = (float4)(rd + rs, 1.0f);
