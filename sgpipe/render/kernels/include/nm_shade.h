@@ -93,6 +93,29 @@ inline int nm_box_axis(float c, float w, int m, int cap, int *idx, float *wt) {
     return k1 - k0 + 1;
 }
 
+/* The single-lobe methods' lobe from the mean normal's length rl (has_map 0: the material's
+ * own lobe): (e, norm, a) and the D amplitude *amp — toksvig: e = f·s, f = rl/(rl + s(1 − rl)),
+ * α′² = α² + 2(1 − rl)/rl; engine_bake / nm_sh: κ = (3rl − rl³)/(1 − rl²), eq 20 / 21;
+ * normals_mip: the material's lobe. */
+inline float3 nm_single_lobe(int filter, int has_map, float rl, float s, float bnorm,
+                             float *amp) {
+    float e = s, nrm = (s + 2.0f) * 0.125f * MF_INV_PI, a = s;
+    *amp = 1.0f;
+    if (has_map && filter == NM_TOKSVIG) {
+        e = s * rl / (rl + s * (1.0f - rl));
+        nrm = (e + 2.0f) * 0.125f * MF_INV_PI;
+        float a2 = s * s + 2.0f * (1.0f - rl) / fmax(rl, 1e-6f);
+        a = sqrt(a2); *amp = s * s / a2;
+    } else if (has_map && (filter == NM_BAKE || filter == NM_SH)) {
+        float kappa = rl >= 1.0f ? 1e30f : (3.0f * rl - rl * rl * rl) / (1.0f - rl * rl);
+        e = kappa > 1e20f ? s : kappa * s / (kappa + s);
+        nrm = bnorm * (e + 1.0f);
+        float a2 = s * s + 2.0f / fmax(kappa, 1e-6f);
+        a = sqrt(a2); *amp = s * s / a2;
+    }
+    return (float3)(e, nrm, a);
+}
+
 /* Trilinear fetch between levels l0 and l0 + 1 with weight f (f = 0: l0 only) of slot `slot`
  * of `stride` per texel in the level's block `which`: 0 the lobes (α_j, α_j·r_j), 1 the mean
  * normal, 2 the SH coefficients γ_lm (nm_levels: lobe, mean, SH offsets in x, z, w). */

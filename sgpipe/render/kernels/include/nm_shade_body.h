@@ -2,8 +2,10 @@
  * the filter, nm_shade.h documents the shading). */
 #if NM_FILTER == NM_VMF
 #define NM_MAX_AX (NM_MAX_LOBES * NM_BOX_TEXELS + NM_MAX_L0)
-#else
+#elif NM_FILTER == NM_SH
 #define NM_MAX_AX 1
+#else
+#define NM_MAX_AX NM_MAX_L0     /* box at level 0: one lobe per tap */
 #endif
     NM_PIXEL_PROLOGUE;
     int obj = gobj[gid];
@@ -104,6 +106,14 @@
     float4 n0s[NM_MAX_L0];
     for (int k = 0; k < n0c; ++k) n0s[k] = (float4)(0.0f);
 #endif
+#if NM_FILTER != NM_VMF && NM_FILTER != NM_SH
+    /* box at level 0: each tap's bilinear mean normal its own lobe (the method's formula at
+     * that tap's length), as vmf's level-0 taps and the reference read the map */
+    int at0 = box && l0 == info.x;
+    int n0c = min(ntap, NM_MAX_L0);
+    float4 n0s[NM_MAX_L0];
+    for (int k = 0; k < n0c; ++k) n0s[k] = (float4)(0.0f);
+#endif
 #if NM_FILTER == NM_SH
     int nsh = info.w ? min((int)bp[3], 4 * NM_MAX_SH4) : 0;
     int k4 = (nsh + 3) / 4;
@@ -127,7 +137,11 @@
         mean_t = (float3)(0.0f);
         for (int k = 0; k < ntap; ++k) {
             float2 uvk = uv0 + (float)(k % nx) * du + (float)(k / nx) * dv;
-            mean_t += nm_trilinear(nm_data, nm_levels, l0, l1, f, 1, 1, 0, uvk).xyz;
+            float3 mk = nm_trilinear(nm_data, nm_levels, l0, l1, f, 1, 1, 0, uvk).xyz;
+            mean_t += mk;
+#if NM_FILTER != NM_VMF && NM_FILTER != NM_SH
+            if (at0) n0s[k % NM_MAX_L0] += (float4)(1.0f, mk);
+#endif
 #if NM_FILTER == NM_VMF
             if (at0) {
                 int4 lv = nm_levels[l0];
@@ -211,24 +225,28 @@
     }
 #else
     {
-        float e = s, nrm = (s + 2.0f) * 0.125f * MF_INV_PI, a = s, amp = 1.0f;
-#if NM_FILTER == NM_TOKSVIG
-        if (info.w) {
-            e = s * rl / (rl + s * (1.0f - rl));
-            nrm = (e + 2.0f) * 0.125f * MF_INV_PI;
-            float a2 = s * s + 2.0f * (1.0f - rl) / fmax(rl, 1e-6f);
-            a = sqrt(a2); amp = s * s / a2;
-        }
-#elif NM_FILTER == NM_BAKE || NM_FILTER == NM_SH
-        if (info.w) {   /* one lobe, κ from the mean length (Banerjee), eq 20 / 21 */
-            float kappa = rl >= 1.0f ? 1e30f : (3.0f * rl - rl * rl * rl) / (1.0f - rl * rl);
-            e = kappa > 1e20f ? s : kappa * s / (kappa + s);
-            nrm = bnorm * (e + 1.0f);
-            float a2 = s * s + 2.0f / fmax(kappa, 1e-6f);
-            a = sqrt(a2); amp = s * s / a2;
-        }
+        int nsrc = 1;
+#if NM_FILTER != NM_SH
+        if (at0) nsrc = n0c;
 #endif
-        ax[0] = (float4)(nbar, amp); lp[0] = (float4)(1.0f, e, nrm, a); nlob = 1;
+        for (int k = 0; k < nsrc; ++k) {
+            float3 ak = nbar;
+            float rk = rl, wk = 1.0f, amp;
+#if NM_FILTER != NM_SH
+            if (at0) {                                /* box, level 0: the tap's lobe */
+                if (n0s[k].x <= 0.0f) continue;
+                float3 mk = to_world(n0s[k].yzw / n0s[k].x, T, B, N);
+                rk = length(mk);
+                if (rk <= 0.0f) continue;
+                ak = mk / rk;
+                wk = n0s[k].x / (float)ntap;
+            }
+#endif
+            float3 q = nm_single_lobe(NM_FILTER, info.w, rk, s, bnorm, &amp);
+            ax[nlob] = (float4)(ak, amp);
+            lp[nlob] = (float4)(wk, q.x, q.y, q.z);
+            ++nlob;
+        }
     }
 #endif
 
@@ -320,7 +338,8 @@
             diff = fmax(dot(mean1, i), 0.0f);
             for (int j = 0; j < n0l; ++j) diff += lp[j].x * fmax(dot(ax[j].xyz, i), 0.0f);
 #else
-            diff = fmax(dot(nbar, i), 0.0f);
+            diff = 0.0f;              /* one lobe at n̄, or box level 0's taps */
+            for (int j = 0; j < nlob; ++j) diff += lp[j].x * fmax(dot(ax[j].xyz, i), 0.0f);
 #endif
             for (int j = 0; j < nlob; ++j)
                 spec += lp[j].x * nm_spec(m, ks, model, ax[j].xyz, o, i, lp[j].y, lp[j].z,
