@@ -285,8 +285,16 @@ class Renderer:
                   "interp": 1 if gmm_interpolate else 0, "nsamp": fis_samples, "seed": seed}
         args = [_SCALAR.get(ctype, _as_is)(values[name])
                 for ctype, name in METHODS[method].parameters]
-        kern(self.queue, (n,), None, *args)
+        # an explicit work-group size: left to the runtime, PoCL's CPU device picks groups so
+        # large for big frames that the per-work-item private arrays of the normal-map
+        # kernels (lobe lists) overflow its thread stack (a segfault from 128² on)
+        kern(self.queue, (-(-n // LOCAL_SIZE) * LOCAL_SIZE,), (LOCAL_SIZE,), *args)
         return opencl.read_back(self.queue, g["out"], (n, 4))[:, :3]
+
+
+#: work-group size of every shading launch (the global size is padded to a multiple; the
+#: kernels return for gid ≥ n)
+LOCAL_SIZE = 64
 
 
 def _as_is(v):

@@ -68,3 +68,20 @@ def test_non_blinn_phong_material_is_refused(tmp_path):
     from sgpipe.render.setup import object_material_specs
     with pytest.raises(BadInput, match="Blinn"):
         load_normalmap_data(conf, tmp_path / "out", object_material_specs(conf))
+
+
+def test_large_frame_renders(tmp_path):
+    """A 256² frame of every normal-map method: with the runtime's own work-group size PoCL
+    picked groups whose per-work-item lobe arrays overflowed its thread stack (a segfault of
+    the whole process from 128² on); the renderer launches fixed groups (LOCAL_SIZE)."""
+    conf = _config(tmp_path)
+    conf = load_config(tmp_path / "c.yaml", [
+        "render.camera.width=256", "render.camera.height=256", "render.compare_to=null",
+        "render.methods=[vmf, normals_mip, toksvig, engine_bake, nm_sh]"])
+    from sgpipe.stages import fit, normalmap, render
+    out = tmp_path / "out"
+    for stage in (fit, normalmap, render):
+        stage.run(conf, out)
+    for m in ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh"):
+        img = read_exr(out / "render" / f"{m}.exr")
+        assert img.shape == (256, 256, 3) and np.isfinite(img).all() and img.max() > 0
