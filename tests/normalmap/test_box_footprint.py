@@ -166,3 +166,57 @@ def test_box_footprint_is_closer_to_the_box_average_off_the_texel_grid(texels, b
     assert err["box", "vmf"] < box_max, err
     assert err["box", "vmf"] < 0.4 * err["trilinear", "vmf"], err
     assert err["box", "toksvig"] < 1.02 * err["trilinear", "toksvig"], err
+
+
+def _bilinear_raw(nrm, u, v):
+    """_bilinear_normals before normalising (the kernels' bilinear mean at level 0)."""
+    m = nrm.shape[0]
+    x = (u % 1.0) * m - 0.5
+    y = (1.0 - v % 1.0) * m - 0.5
+    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
+    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
+    g = lambda r, c: nrm[r % m, c % m]  # noqa: E731
+    return ((g(y0, x0) * (1 - fx) + g(y0, x0 + 1) * fx) * (1 - fy)
+            + (g(y0 + 1, x0) * (1 - fx) + g(y0 + 1, x0 + 1) * fx) * fy)
+
+
+def test_box_level0_shades_a_grid_of_bilinear_taps_per_method():
+    """Footprint of 1.3 × 0.7 level-0 texels (rotated 30°): a 3 × 2 grid of taps at the centres
+    of the parallelogram's cells, each tap its own lobe — vmf and normals_mip the material's
+    lobe about the unit bilinear normal, toksvig f·s with f from the tap's bilinear mean length
+    r (f = r/(r + s(1 − r))) — and its own diffuse max(0, n·i), averaged."""
+    from tests.normalmap.helpers import tilted_normals
+    s, kd = 40.0, 0.25
+    nrm = tilted_normals(8, seed=2, spread=0.5)
+    fit = fit_vmf_pyramid(nrm, VMFSettings(lobes=2))
+    pyr = NormalMapPyramid(fit.alpha, fit.alpha_r,
+                           [m.astype(np.float32) for m in mean_normal_pyramid(nrm)])
+    rng = np.random.default_rng(9)
+    n = 16
+    uv = rng.uniform(0, 1, (n, 2))
+    c, sn = math.cos(math.pi / 6), math.sin(math.pi / 6)
+    ex, ey = np.array([1.3 * c, 1.3 * sn]) / 8, np.array([-0.7 * sn, 0.7 * c]) / 8
+    duv = np.tile(np.concatenate([ex, ey]), (n, 1))
+    views = unit(np.tile([0.1, -0.05, 1.0], (n, 1)) + rng.normal(0, 0.2, (n, 3)))
+    fr = flat_frame(views, uv, duv)
+    nx, ny = 3, 2                              # ⌈2·1.3⌉, ⌈2·0.7⌉
+    ref = {k: np.zeros(n) for k in ("vmf", "normals_mip", "toksvig")}
+    norm0 = (s + 2) / (8 * math.pi)
+    for p in range(n):
+        for b in range(ny):
+            for a in range(nx):
+                t = uv[p] + ((a + 0.5) / nx - 0.5) * ex + ((b + 0.5) / ny - 0.5) * ey
+                raw = _bilinear_raw(nrm, np.array([t[0]]), np.array([t[1]]))[0]
+                r = np.linalg.norm(raw)
+                nk = raw / r
+                dif = kd / math.pi * max(nk @ LIGHT, 0.0)
+                spec = blinn_lobe(nk, views[p], LIGHT, s, norm0)
+                ref["vmf"][p] += (dif + spec) / (nx * ny)
+                ref["normals_mip"][p] += (dif + spec) / (nx * ny)
+                e = s * r / (r + s * (1 - r))
+                ref["toksvig"][p] += (dif + blinn_lobe(nk, views[p], LIGHT, e,
+                                                       (e + 2) / (8 * math.pi))) / (nx * ny)
+    r = _renderer(pyr, "box", kd=kd, s=s)
+    for meth, want in ref.items():
+        np.testing.assert_allclose(r.shade(meth, fr)[:, 0], want, rtol=5e-4, atol=1e-5,
+                                   err_msg=meth)
