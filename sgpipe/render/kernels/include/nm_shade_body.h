@@ -54,8 +54,18 @@
             if (nu <= NM_BOX_TEXELS && nv <= NM_BOX_TEXELS / nu) break;
         }
         lev = min(lev, info.y - 1);
-        l0 = l1 = info.x + lev;
-        if (lev == 0) {          /* bilinear normals on an nx × ny grid over the parallelogram */
+        /* an elongated footprint whose box needs a coarser level than trilinear's taps along
+         * its major axis (at the minor axis' level) keeps those taps: a coarse box blurs the
+         * minor axis over texels several times its width (grazing plane, 15°: vmf 25.9 dB
+         * box-only against 27.8 dB with the taps) */
+        float lx = length(duv.xy) * side, ly = length(duv.zw) * side;
+        int max_taps = max((int)bp[1], 1);
+        float len = max_taps > 1 ? fmax(fmin(lx, ly), fmax(lx, ly) / (float)max_taps)
+                                 : fmax(lx, ly);
+        if ((float)lev > floor(log2(fmax(len, 1.0f)))) box = 0;
+        else l0 = l1 = info.x + lev;
+        if (!box) {
+        } else if (lev == 0) {          /* bilinear normals on an nx × ny grid over the parallelogram */
             nx = clamp((int)ceil(2.0f * length(duv.xy) * side - 1e-3f), 1, NM_BOX_L0_TAPS);
             int ny = clamp((int)ceil(2.0f * length(duv.zw) * side - 1e-3f), 1, NM_BOX_L0_TAPS);
             ntap = nx * ny;
@@ -71,7 +81,8 @@
                     ++nbx;
                 }
         }
-    } else if (info.w) {
+    }
+    if (info.w && !box) {
         float4 duv = gduv[gid];
         float side = (float)nm_levels[info.x].y;
         float lx = length(duv.xy) * side, ly = length(duv.zw) * side;
