@@ -220,3 +220,21 @@ def test_box_level0_shades_a_grid_of_bilinear_taps_per_method():
     for meth, want in ref.items():
         np.testing.assert_allclose(r.shade(meth, fr)[:, 0], want, rtol=5e-4, atol=1e-5,
                                    err_msg=meth)
+
+
+def test_elongated_footprint_keeps_the_trilinear_taps():
+    """With 8 taps, a footprint 6 × 0.9 texels (its box would need level 2 of this map, the
+    taps level 0) shades exactly as trilinear; a 3.3 × 3.3 one does not."""
+    rng = np.random.default_rng(4)
+    pyr, mus, _ = _lobe_pyramid(rng, 300.0)
+    n = 12
+    uv = rng.uniform(0, 1, (n, 2))
+    views = unit(np.tile([0.1, -0.05, 1.0], (n, 1)) + rng.normal(0, 0.2, (n, 3)))
+    out = {}
+    for name, (a, b) in {"long": (6.0, 0.9), "square": (3.3, 3.3)}.items():
+        duv = np.tile([a / 8, 0.0, 0.0, b / 8], (n, 1))
+        fr = flat_frame(views, uv, duv)
+        out[name] = [_renderer(pyr, f, kd=0.2, taps=8).shade("vmf", fr)[:, 0]
+                     for f in ("trilinear", "box")]
+    np.testing.assert_array_equal(out["long"][0], out["long"][1])
+    assert np.abs(out["square"][0] - out["square"][1]).max() > 0.02
