@@ -75,7 +75,8 @@ class Method:
 
 
 #: ... what `sg` takes next: the accurate Γ_L chain ((V, m) B-spline coefficient pairs, border 2,
-#: cubemap.h) with its point set and unfiltered map, the diffuse SG light fit, the local lights.
+#: cubemap.h) with its point set and unfiltered map, the diffuse SG light fit, the local lights,
+#: the NDF tables' records (the point set's exact BRDF).
 SG_PARAMS = """
     __global const float4 *pyr, __global const int *pyr_off, __global const int *pyr_res,
     __global const float *pyr_lam, const int pyr_n, const float pyr_log_ratio,
@@ -83,7 +84,8 @@ SG_PARAMS = """
     __global const float4 *pyr_pts, const int n_pts,
     __global const float4 *pyr_raw, const int raw_n,
     __global const float4 *env_sg, const int n_env_sg, const float env_scale,
-    __global const float4 *lights, const int n_lights"""
+    __global const float4 *lights, const int n_lights,
+    __global const int4 *ndf_info"""
 
 #: ... what `transport` (Green06) takes next: per object (first vertex, first face, K, has data),
 #: the transport meshes' faces, the Gaussians, SH transfer vectors (whole, and the interreflected
@@ -124,7 +126,8 @@ NORMALMAP_METHODS = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh")
 
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sg", "Wang09 SG + SSDF shadows", "sg_shade",
-           (PIXEL_PARAMS, SG_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",)),
+           (PIXEL_PARAMS, SG_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",),
+           needs_ndf_table=True),
     Method("gmm", "Töral19 per-view vMF mixtures with MIP lookups", "gmm_shade",
            (PIXEL_PARAMS, MIP_PARAMS, GMM_POINT_PARAMS, "const int interp", TAIL_PARAMS),
            defines=("MAX_GMM_LOBES", "GMM_TAPS", "GMM_ROTATE"), baseline_shadows=True,

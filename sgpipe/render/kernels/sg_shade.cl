@@ -11,7 +11,10 @@
  * Defines: NV (PCA terms, stride of the coefficient rows), FH_A, FH_C3..FH_C0 (f_h sigmoid),
  * MAX_NDF_LOBES, SPEC_SUBLOBES (3, or 1 = Wang09's isotropic warp), ASG_MAX_HALF (asg.h).
  * A material with ASG lobes (fit.ndf_sg.anisotropic: asg) is shaded from them instead of its SG
- * lobes: each ASG's i-space sub-lobes (asg.h) go through the same M_o, cosine, SSDF and Γ_L. */
+ * lobes: each ASG's i-space sub-lobes (asg.h) go through the same M_o, cosine, SSDF and Γ_L.
+ * The environment's point set (a sun) is shaded with the exact BRDF M_o(i) D(h) (the NDF table
+ * of materials.tabulate_ndf, as `fis` reads it) at each point, SSDF horizon, not through the
+ * lobes, whenever the material has that table. */
 #include "sg.h"
 #include "asg.h"
 #include "ssdf.h"
@@ -23,6 +26,7 @@
 #define SPEC_SUBLOBES 3
 #endif
 #define SHARP_CACHE 4       /* sharp lights whose irradiance is computed once per pixel */
+#define SG_POINT_LAMBDA 2e4f  /* the point set's sharpness for the SSDF horizon (f̂_h) */
 
 /* Wang09 eq 17–20 with the warp's anisotropy kept: an NDF lobe G(h; g, λ, μ) seen from o maps
  * to i-space around p = reflect(o, g) with sharpness λ/4 in the plane of incidence and
@@ -108,6 +112,20 @@ __kernel void sg_shade(SG_SHADE_ARGS)
      * (spec_cosine), in the geometric frame; built on the fly (no per-lobe arrays: private
      * memory stays small for any MAX_NDF_LOBES). */
     int nsg = (int)m[MAT_NLOBES], lobe0 = (int)m[MAT_LOBE0];
+    /* The point set (a sun) with the exact BRDF where the material has its NDF table: a delta
+     * light needs ρ at one direction, and the lobes' Gaussian fall-off loses GGX's power-law
+     * tail, which a sun 10⁴× the sky lifts above white far from the highlight. */
+    int4 ndf = ndf_info[OBJ_MAT(ob)];
+    int exact_pts = ndf.w && !(flags & FLAG_NO_ENV_SPECULAR);
+    for (int k = 0; exact_pts && k < n_pts; ++k) {
+        float3 lg = to_local(pyr_pts[2 * k].xyz, T, B, N);
+        float3 lp = quat_rotate(qi, lg);
+        if (lp.z <= 0.0f || lg.z <= 0.0f) continue;
+        float3 h = normalize(op + lp);
+        rs += (env_scale * lp.z * ndf_table(tables, ndf, h)
+               * fh_hat(vis_theta(&vis, lg), SG_POINT_LAMBDA))
+              * mf_M(m, tables, ks, op, lp) * pyr_pts[2 * k + 1].xyz;
+    }
     int na = asg_count(lobes, lobe0, nsg);
     int nl = na > 0 ? 0 : min(nsg, MAX_NDF_LOBES);
     for (int j = 0; j < nl + na; ++j) {
@@ -147,7 +165,8 @@ __kernel void sg_shade(SG_SHADE_ARGS)
                 rs += sv.mu * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam,
                                                             pyr_n, pyr_log_ratio, env_mean.xyz,
                                                             pyr_raw, raw_n, pw, sv.lam)
-                                           + asg_points(pyr_pts, n_pts, pw, sv.lam));
+                                           + (exact_pts ? (float3)(0.0f)
+                                                        : asg_points(pyr_pts, n_pts, pw, sv.lam)));
             }
             /* Local lights (eq 43). */
             for (int l = 0; l < n_lights; ++l) {

@@ -110,4 +110,24 @@ inline float3 mf_diffuse(__global const float *m, float3 kd, float3 o, float3 i)
     return kd * MF_INV_PI;
 }
 
+/* Exact NDF D(h) from the material's table (materials.tabulate_ndf, ndf_info = (offset, nt, np,
+ * has)): rows t = √(1 − cos θ_h) ∈ [0, 1], columns φ ∈ [0, 2π). */
+inline float ndf_table(__global const float *tables, int4 info, float3 h) {
+    if (h.z <= 0.0f) return 0.0f;
+    int nt = info.y, np = info.z;
+    float t = sqrt(clamp(1.0f - h.z, 0.0f, 1.0f)) * (float)(nt - 1);
+    int t0 = min((int)floor(t), nt - 2);
+    float ft = t - (float)t0;
+    __global const float *tab = tables + info.x;
+    if (np <= 1) return mix(tab[t0], tab[t0 + 1], ft);
+    float ph = atan2(h.y, h.x);
+    if (ph < 0.0f) ph += 2.0f * 3.14159265358979f;
+    float pc = ph / (2.0f * 3.14159265358979f) * (float)np;
+    int p0 = (int)floor(pc) % np, p1 = (p0 + 1) % np;
+    float fp = pc - floor(pc);
+    float a = mix(tab[t0 * np + p0], tab[t0 * np + p1], fp);
+    float b = mix(tab[(t0 + 1) * np + p0], tab[(t0 + 1) * np + p1], fp);
+    return mix(a, b, ft);
+}
+
 #endif
