@@ -331,6 +331,7 @@ def main(argv: list[str] | None = None) -> int:
     (a.out / "han07.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
     write_report(a.results, table, f7, f3, f3r, tg, sheets, columns(), missing_baselines(),
                  size=size, spp=spp, seconds=time.perf_counter() - t0, quick=a.quick,
+                 footprint=a.footprint,
                  command="python -m sgpipe.experiments.han07 " + " ".join(
                      sys.argv[1:] if argv is None else argv))
     for t in tg:

@@ -34,7 +34,7 @@ def _fig2_tables(table: dict, cols: list[str]) -> list[str]:
 
 def write_report(path: Path, table, f7, f3, f3r, tg, sheets, cols, missing, *, size: int,
                  spp: int, seconds: float,
-                 quick: bool, command: str) -> Path:
+                 quick: bool, command: str, footprint: str = "trilinear") -> Path:
     from sgpipe.experiments import han07 as H
     from sgpipe.experiments import han07_ndf as N
     L = ["# Results — Han07 normal-map filtering (Fig 2, 7, 3; issue 16)", "",
@@ -52,7 +52,10 @@ def write_report(path: Path, table, f7, f3, f3r, tg, sheets, cols, missing, *, s
           "poles and the silhouette). Blinn–Phong s = "
           f"{H.EXPONENT:g}, kd 0.15, ks 0.85, one directional light. Methods: one ray per "
           "pixel, the MIP level from its ray-differential footprint, up to 8 taps along an "
-          "anisotropic footprint (`normalmap_max_taps: 8`); `vmfJ` = the vMF method with J "
+          "anisotropic footprint (`normalmap_max_taps: 8`)"
+          + ("; `normalmap_footprint: box`: the texels of the finest level where the pixel's "
+             "box overlaps ≤ 9 of them, weighted by overlap, lobes kept apart (docs/HAN07.md)"
+             if footprint == "box" else "") + "; `vmfJ` = the vMF method with J "
           "lobes (`normalmap.lobes`). Ground truth: `reference`, the unfiltered map, box pixel "
           f"filter, {spp} spp. Cells: display PSNR (dB) / LDR-ꟻLIP over the surface pixels "
           "(sgpipe.metrics.compare_images); `ref. σ / mean`: the reference's mean per-pixel "
