@@ -28,9 +28,14 @@ def _lobe(cos, s):
     return (s + 1.0) / (2.0 * math.pi) * np.maximum(cos, 0.0) ** s
 
 
+def truth_samples(normals: np.ndarray, s: float, h: np.ndarray) -> np.ndarray:
+    """f_s(ω_h · n) per normal: what `truth_levels` averages."""
+    return _lobe(normals @ h, s)
+
+
 def truth_levels(normals: np.ndarray, s: float, h: np.ndarray, n_levels: int) -> list:
     """Per level the texel mean of f_s(ω_h · n_i) over its covered normals."""
-    out = [_lobe(normals @ h, s)]
+    out = [truth_samples(normals, s, h)]
     for _ in range(1, n_levels):
         out.append(box_down(out[-1]))
     return out

@@ -84,12 +84,18 @@ def validate_texels(img: np.ndarray, path, key, *, is_exr: bool) -> None:
                        f"{MIN_LENGTH}; {_first_texel(short)})", file=path, key=key)
 
 
+def read_normal_texels(path: str | Path, key: str | None = None) -> np.ndarray:
+    """The validated texel values c = (n + 1)/2 (N, N, 3) float64 of a normal-map file, before
+    decoding (what a bilinear read interpolates)."""
+    img, fmt = read_raw(path, key)
+    validate_texels(img, path, key, is_exr=Path(path).suffix.lower() == ".exr")
+    return np.ascontiguousarray(img[..., :3])
+
+
 def read_normal_map(path: str | Path, key: str | None = None) -> np.ndarray:
     """Unit tangent-space normals (N, N, 3) float64 of a normal-map file; row 0 is the top of
     the image (v = 1, OBJ convention), +x along u, +y along v, +z the geometric normal."""
-    img, fmt = read_raw(path, key)
-    validate_texels(img, path, key, is_exr=Path(path).suffix.lower() == ".exr")
-    return decode_normals(img)
+    return decode_normals(read_normal_texels(path, key))
 
 
 def check_object_uvs(cfg) -> None:

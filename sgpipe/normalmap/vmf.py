@@ -63,30 +63,41 @@ def _level0_textures(normals, slot, k_n, rbar_max):
 
 
 def fit_vmf_pyramid(normals: np.ndarray, settings: VMFSettings = VMFSettings(),
-                    progress=None) -> VMFPyramid:
-    """The vMF textures of every level of a (n, n, 3) unit normal map. `progress(step, what)`
-    is called after each level of each pass (for a progress bar)."""
+                    progress=None, fine: np.ndarray | None = None) -> VMFPyramid:
+    """The vMF textures of every level of a (n, n, 3) unit normal map. With `fine` (n·s, n·s,
+    3), the unit normals of s × s sub-samples per texel (`bilinear.bilinear_normals`), the
+    levels ≥ 1 are fitted to those instead (level ℓ: the (2^ℓ s)² sub-samples of a texel; the
+    log2 s sub-sample levels below are fitted in pass 1 only, for the Hochbaum–Shmoys
+    candidates); level 0 stays the map. `progress(step, what)` is called after each level of
+    each pass (for a progress bar)."""
     s = settings
     normals = np.ascontiguousarray(normals, np.float64)
     n = normals.shape[0]
+    src = normals if fine is None else np.ascontiguousarray(fine, np.float64)
+    shift = (src.shape[0] // n).bit_length() - 1    # sub-sample levels below level 0
+    if src.shape[0] != n << shift:
+        raise ValueError(f"sub-sample map side {src.shape[0]} is not {n}·2^k")
     k_n = int(s.lobes)
     n_lev = level_count(n, s.levels)
     rbar_max = rbar_of_kappa(s.kappa_max)
     dummy_a = np.zeros((1, 1, k_n))
     dummy_m = np.zeros((1, 1, k_n, 3))
-    fits = [None]                                   # level 0 is the map itself
-    for lev in range(1, n_lev):                     # pass 1, fine → coarse
-        m = n >> lev
+    fits = [None]                                   # index: level of src; 0 is src itself
+    for lev in range(1, n_lev + shift):             # pass 1, fine → coarse
+        m = src.shape[0] >> lev
         a, mu, ka, rb = (np.zeros((m, m, k_n)), np.zeros((m, m, k_n, 3)),
                          np.zeros((m, m, k_n)), np.zeros((m, m, k_n)))
         c = fits[-1]
         ca, cmu, crb = c[:3] if c else (dummy_a, dummy_m, dummy_a)
-        jit.fit_level(normals, lev, False, ca, cmu, crb, c is None, dummy_a, dummy_m, dummy_a,
+        jit.fit_level(src, lev, False, ca, cmu, crb, c is None, dummy_a, dummy_m, dummy_a,
                       dummy_a, dummy_m, False, a, mu, ka, rb, 0.0, s.max_iter, s.tol,
                       s.kappa_max)
         fits.append((a, mu, rb, ka))
+        if lev <= shift:
+            fits[lev - 1] = None                    # a sub-sample level: only its parent needs it
         if progress:
-            progress(1, f"level {lev} EM")
+            progress(1, f"level {lev - shift} EM")
+    fits = [None] + fits[1 + shift:]                # index: level of the map
     if not s.align:
         alpha = [_level0_textures(normals, np.zeros((n, n), np.int64), k_n, rbar_max)]
         alpha += [_textures(f[0], f[1], f[2]) for f in fits[1:]]
@@ -101,7 +112,7 @@ def fit_vmf_pyramid(normals: np.ndarray, settings: VMFSettings = VMFSettings(),
         pa, pm = parent if parent is not None else (dummy_a, dummy_m)
         ma, mmu, mka = np.zeros_like(a), np.zeros_like(mu), np.zeros_like(ka)
         jit.match_level(ua, umu, uka, pa, pm, parent is not None, ma, mmu, mka)
-        jit.fit_level(normals, lev, True, dummy_a, dummy_m, dummy_a, False, ma, mmu, mka, pa,
+        jit.fit_level(src, lev + shift, True, dummy_a, dummy_m, dummy_a, False, ma, mmu, mka, pa,
                       pm, parent is not None, a, mu, ka, rb, float(s.align_strength),
                       s.align_iter, s.tol, s.kappa_max)
         out[lev] = _textures(a, mu, rb)
@@ -116,10 +127,10 @@ def fit_vmf_pyramid(normals: np.ndarray, settings: VMFSettings = VMFSettings(),
     return VMFPyramid([t[0] for t in out], [t[1] for t in out])
 
 
-def progress_steps(side: int, settings: VMFSettings) -> int:
-    """How many times `fit_vmf_pyramid` calls `progress`."""
+def progress_steps(side: int, settings: VMFSettings, subsamples: int = 1) -> int:
+    """How many times `fit_vmf_pyramid` calls `progress` (`subsamples`: s of `fine`)."""
     n_lev = level_count(side, settings.levels)
-    return (n_lev - 1) * (2 if settings.align else 1)
+    return (n_lev - 1) * (2 if settings.align else 1) + (int(subsamples).bit_length() - 1)
 
 
 # -- lookup (Algorithm 2 lines 5–10; the render kernel mirrors these) ---------------------------

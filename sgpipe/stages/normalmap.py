@@ -52,13 +52,14 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
     if cfg.normalmap is None:
         log("[normalmap] no 'normalmap:' section in the config; nothing to do")
         return None
-    from sgpipe.normalmap.read import check_object_uvs, read_normal_map
+    from sgpipe.normalmap.read import check_object_uvs, decode_normals, read_normal_texels
     maps = collect_maps(cfg)
     if not maps:
         log("[normalmap] no scene object has a normal_map; nothing to do")
         return None
     check_object_uvs(cfg)
-    normals = [read_normal_map(m["path"], m["key"]) for m in maps]   # validated before writing
+    texels = [read_normal_texels(m["path"], m["key"]) for m in maps]   # validated before writing
+    normals = [decode_normals(t) for t in texels]
     params = {"normalmap": to_plain(cfg.normalmap),
               "maps": [{"name": m["name"], "objects": m["objects"],
                         "file": getattr(m["path"], "relative", str(m["path"]))} for m in maps]}
@@ -72,12 +73,12 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
                                align_strength=nm.align_strength, max_iter=nm.em_iterations,
                                align_iter=nm.align_iterations, tol=nm.em_tolerance,
                                kappa_max=nm.kappa_max)
-        steps = sum((progress_steps(n.shape[0], settings) if "vmf" in nm.methods else 0) + 2
-                    for n in normals)
+        steps = sum((progress_steps(n.shape[0], settings, nm.bilinear_samples)
+                     if "vmf" in nm.methods else 0) + 2 for n in normals)
         bar = _bar(steps)
         try:
-            for m, n in zip(maps, normals):
-                run.report[m["name"]] = _process(run, nm, settings, m["name"], n, bar)
+            for m, n, t in zip(maps, normals, texels):
+                run.report[m["name"]] = _process(run, nm, settings, m["name"], n, t, bar)
         finally:
             if bar:
                 bar.render_finish()
@@ -86,7 +87,33 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
     return run
 
 
-def _process(run: StageRun, nm, settings, name: str, normals: np.ndarray, bar) -> dict:
+def _pyramids(normals: np.ndarray, texels: np.ndarray, sub: int, levels):
+    """(fine, build): the sub-sample normals of the bilinear map (None for sub = 1) and
+    build(per_sample, plain) → a linear pyramid whose levels ≥ 1 average per_sample over the
+    sub-samples (`bilinear.continuum_pyramid`), or `plain()` (today's texel pyramid)."""
+    if sub == 1:
+        return None, lambda per_sample, plain: plain()
+    from sgpipe.normalmap.bilinear import bilinear_normals, continuum_pyramid
+    fine = bilinear_normals(texels, sub)
+    return fine, lambda per_sample, plain: continuum_pyramid(normals, fine, sub, levels,
+                                                             per_sample)
+
+
+def _sh_map(lmax: int):
+    """normals (h, w, 3) → Y_lm (h, w, (lmax+1)²) (`sh.ndf_sh_pyramid`'s level 0)."""
+    from sgpipe.normalmap._sh_jit import sh_eval_map, sh_norms
+    norms = sh_norms(lmax)
+
+    def f(x):
+        x = np.ascontiguousarray(x, np.float64)
+        out = np.empty(x.shape[:2] + ((lmax + 1) ** 2,))
+        sh_eval_map(x, int(lmax), norms, out)
+        return out
+    return f
+
+
+def _process(run: StageRun, nm, settings, name: str, normals: np.ndarray, texels: np.ndarray,
+             bar) -> dict:
     from sgpipe.artifacts import normalmap as art
     from sgpipe.normalmap import pyramid as P
     from sgpipe.normalmap import quality as Q
@@ -100,9 +127,12 @@ def _process(run: StageRun, nm, settings, name: str, normals: np.ndarray, bar) -
     n_lev = P.level_count(normals.shape[0], nm.levels)
     h = Q.half_vector(nm.preview_light_deg)
     s = float(nm.toksvig_exponent)
-    shade = {"truth": Q.truth_levels(normals, s, h, n_lev)}
+    # levels ≥ 1 from s × s sub-samples of the bilinear map (docs/HAN07.md) when asked
+    fine, build = _pyramids(normals, texels, nm.bilinear_samples, nm.levels)
+    shade = {"truth": build(lambda x: Q.truth_samples(x, s, h),
+                            lambda: Q.truth_levels(normals, s, h, n_lev))}
     t = time.perf_counter()
-    mean = P.mean_normal_pyramid(normals, nm.levels)
+    mean = build(None, lambda: P.mean_normal_pyramid(normals, nm.levels))
     if "baselines" in nm.methods:
         art.write_baselines(run, name, mean=mean,
                             toksvig=[P.toksvig_factor(m, s) for m in mean],
@@ -115,14 +145,15 @@ def _process(run: StageRun, nm, settings, name: str, normals: np.ndarray, bar) -
     tick()
     if "sh" in nm.methods:
         t = time.perf_counter()
-        gamma = ndf_sh_pyramid(normals, nm.sh_order, nm.levels)
+        gamma = build(_sh_map(nm.sh_order),
+                      lambda: ndf_sh_pyramid(normals, nm.sh_order, nm.levels))
         run.timings[f"{name}.sh_s"] = time.perf_counter() - t
         art.write_sh(run, name, gamma, nm.sh_order)
         shade["sh"] = [Q.sh_level(g, s, h) for g in gamma]
     tick()
     if "vmf" in nm.methods:
         t = time.perf_counter()
-        pyr = fit_vmf_pyramid(normals, settings, progress=tick)
+        pyr = fit_vmf_pyramid(normals, settings, progress=tick, fine=fine)
         run.timings[f"{name}.vmf_s"] = time.perf_counter() - t
         art.write_vmf(run, name, pyr.alpha, pyr.alpha_r, kappa_max=nm.kappa_max,
                       aligned=nm.align)

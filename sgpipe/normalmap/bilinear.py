@@ -1,0 +1,84 @@
+"""The normal map as the reference and the renderer read it: the unit *bilinear* normal field
+(texel values c interpolated between texel centres at half-integers, repeat addressing, then
+decoded 2c − 1, n_z ≥ 10⁻³, normalised: `reference._sampling_jit.tex_bilinear` and
+`reference.surface.normal_mapped_frame`, the kernels' `tex_bilinear` + `normal_from_map`).
+Han07 eq 9's texel NDF γ over this continuum is approximated by s × s sub-samples per finest
+texel (midpoint rule), from which the levels ≥ 1 of every pyramid are built (docs/HAN07.md,
+"The map's bilinear continuum")."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sgpipe.normalmap.pyramid import box_down, level_count
+from sgpipe.normalmap.read import decode_normals
+
+#: Sub-samples per texel axis that `normalmap.bilinear_samples` accepts.
+SAMPLES = (1, 2, 4)
+
+
+def level_shift(s: int) -> int:
+    """log2 s: how many levels of the sub-sample map's pyramid lie below the map's level 0."""
+    if s not in SAMPLES:
+        raise ValueError(f"bilinear sub-samples per texel axis must be one of {SAMPLES}, not {s}")
+    return int(s).bit_length() - 1
+
+
+def subsample_coords(n: int, s: int) -> np.ndarray:
+    """Positions (n·s,) of the sub-texel centres along one axis in the bilinear read's texel
+    index coordinates (texel k's centre at k): sub-sample a of texel k sits at
+    k + (a + ½)/s − ½, so s = 1 gives the texel centres themselves."""
+    return (np.arange(n * s, dtype=np.float64) + 0.5) / s - 0.5
+
+
+def _axis_weights(n: int, s: int):
+    x = subsample_coords(n, s)
+    x0 = np.floor(x)
+    return x0.astype(np.int64) % n, (x0.astype(np.int64) + 1) % n, x - x0
+
+
+def bilinear_texels(texels: np.ndarray, s: int) -> np.ndarray:
+    """The texel values (n, n, C) bilinearly interpolated at the s × s sub-texel centres of
+    every texel, (n·s, n·s, C), with the reference's arithmetic (a + f(b − a) per axis) and
+    repeat addressing; row r of the result lies in texel row r // s (row 0 is v = 1)."""
+    t = np.asarray(texels, np.float64)
+    n = t.shape[0]
+    c0, c1, fx = _axis_weights(n, s)
+    r0, r1, fy = _axis_weights(n, s)
+    fx = fx[None, :, None]
+    a = t[r0][:, c0] + fx * (t[r0][:, c1] - t[r0][:, c0])
+    b = t[r1][:, c0] + fx * (t[r1][:, c1] - t[r1][:, c0])
+    return a + fy[:, None, None] * (b - a)
+
+
+def bilinear_normals(texels: np.ndarray, s: int) -> np.ndarray:
+    """Unit normals (n·s, n·s, 3) of the bilinear normal field at the sub-texel centres, from
+    the map's texel values c = (n + 1)/2 (the file's channels, `read.read_normal_texels`)."""
+    return decode_normals(bilinear_texels(np.asarray(texels)[..., :3], s))
+
+
+def continuum_pyramid(level0: np.ndarray, fine: np.ndarray, s: int, levels: int | None,
+                      per_sample=None, band_rows: int = 64) -> list:
+    """A linear MIP pyramid whose level 0 is `per_sample(level0)` and whose level ℓ ≥ 1 holds
+    the mean of `per_sample` over the (2^ℓ s)² sub-samples of `fine` a texel covers, (side_l,
+    side_l, C) float64. Built in bands of `band_rows` level-1 rows (the sub-sample level of an
+    SH map does not fit in memory at 1024², s = 4); each band is reduced by repeated 2×2 means
+    (`pyramid.box_down`), so the values are those of the full sub-sample pyramid."""
+    f = per_sample if per_sample is not None else (lambda x: np.asarray(x, np.float64))
+    n = level0.shape[0]
+    n_lev = level_count(n, levels)
+    out = [f(level0)]
+    if n_lev == 1:
+        return out
+    k = level_shift(s)
+    step = 2 * s                                  # sub-sample rows per level-1 row
+    bands = []
+    for r in range(0, n // 2, band_rows):
+        x = f(fine[r * step:min(n // 2, r + band_rows) * step])
+        for _ in range(k + 1):
+            x = box_down(x)
+        bands.append(x)
+    out.append(np.concatenate(bands, axis=0))
+    for _ in range(2, n_lev):
+        out.append(box_down(out[-1]))
+    return out
