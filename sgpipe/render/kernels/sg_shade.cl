@@ -12,9 +12,9 @@
  * MAX_NDF_LOBES, SPEC_SUBLOBES (3, or 1 = Wang09's isotropic warp), ASG_MAX_HALF (asg.h).
  * A material with ASG lobes (fit.ndf_sg.anisotropic: asg) is shaded from them instead of its SG
  * lobes: each ASG's i-space sub-lobes (asg.h) go through the same M_o, cosine, SSDF and Γ_L.
- * The environment's point set (a sun) is shaded with the exact BRDF M_o(i) D(h) (the NDF table
- * of materials.tabulate_ndf, as `fis` reads it) at each point, SSDF horizon, not through the
- * lobes, whenever the material has that table. */
+ * The environment's point set (a sun) and lights sharper than SHARP_LIGHT are shaded with the
+ * exact BRDF M_o(i) D(h) (the NDF table of materials.tabulate_ndf, as `fis` reads it) at their
+ * direction, SSDF horizon, not through the lobes, whenever the material has that table. */
 #include "sg.h"
 #include "asg.h"
 #include "ssdf.h"
@@ -91,6 +91,10 @@ __kernel void sg_shade(SG_SHADE_ARGS)
      * cosine lobe (λ_L ≥ SHARP_LIGHT) uses the limit of the products, E·max(0, n·l)·f(l)·
      * f̂_h(θ_d(l), λ_L): C*'s peak 1.17 would otherwise brighten small lights by up to 17%. */
     float3 e_sharp[SHARP_CACHE];      /* E of the first sharp lights, reused by the specular */
+    /* The material's NDF table (materials.tabulate_ndf; ndf.w = 0: none): sharp lights and the
+     * environment's point set then take the exact specular BRDF M_o(i) D(h) at their direction
+     * instead of the lobes' value there (below). */
+    int4 ndf = ndf_info[OBJ_MAT(ob)];
     for (int k = 0; k < n_lights; ++k) {
         SG Lw = light_sg(lights[2 * k], lights[2 * k + 1], x);
         SG L = sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu);
@@ -101,6 +105,8 @@ __kernel void sg_shade(SG_SHADE_ARGS)
                 E = sg_integral(L) * (lp.z * fh_hat(vis_theta(&vis, L.p), L.lam));
             if (k < SHARP_CACHE) e_sharp[k] = E;
             rd += mf_diffuse(m, kd, op, lp) * E;
+            if (ndf.w && lp.z > 0.0f)
+                rs += E * mf_M(m, tables, ks, op, lp) * ndf_table(tables, ndf, normalize(op + lp));
             continue;
         }
         SG g = sg_product(L, cosg);
@@ -115,7 +121,6 @@ __kernel void sg_shade(SG_SHADE_ARGS)
     /* The point set (a sun) with the exact BRDF where the material has its NDF table: a delta
      * light needs ρ at one direction, and the lobes' Gaussian fall-off loses GGX's power-law
      * tail, which a sun 10⁴× the sky lifts above white far from the highlight. */
-    int4 ndf = ndf_info[OBJ_MAT(ob)];
     int exact_pts = ndf.w && !(flags & FLAG_NO_ENV_SPECULAR);
     for (int k = 0; exact_pts && k < n_pts; ++k) {
         float3 lg = to_local(pyr_pts[2 * k].xyz, T, B, N);
@@ -173,6 +178,7 @@ __kernel void sg_shade(SG_SHADE_ARGS)
                 SG Lw = light_sg(lights[2 * l], lights[2 * l + 1], x);
                 SG L = sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu);
                 if (L.lam >= SHARP_LIGHT) {
+                    if (ndf.w) continue;            /* exact above */
                     float3 E;
                     if (l < SHARP_CACHE) {
                         E = e_sharp[l];
