@@ -45,10 +45,11 @@ def bilinear_texels(texels: np.ndarray, s: int) -> np.ndarray:
     n = t.shape[0]
     c0, c1, fx = _axis_weights(n, s)
     r0, r1, fy = _axis_weights(n, s)
-    fx = fx[None, :, None]
-    a = t[r0][:, c0] + fx * (t[r0][:, c1] - t[r0][:, c0])
-    b = t[r1][:, c0] + fx * (t[r1][:, c1] - t[r1][:, c0])
-    return a + fy[:, None, None] * (b - a)
+    # separable: every texel row interpolated along u once, then the rows along v (the same
+    # operations as the reference's a = row y0 along x, b = row y1 along x, a + fy (b − a))
+    tx = t[:, c0] + fx[None, :, None] * (t[:, c1] - t[:, c0])
+    a = tx[r0]
+    return a + fy[:, None, None] * (tx[r1] - a)
 
 
 def bilinear_normals(texels: np.ndarray, s: int) -> np.ndarray:
