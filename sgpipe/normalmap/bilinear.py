@@ -59,12 +59,13 @@ def bilinear_normals(texels: np.ndarray, s: int) -> np.ndarray:
 
 
 def continuum_pyramid(level0: np.ndarray, fine: np.ndarray, s: int, levels: int | None,
-                      per_sample=None, band_rows: int = 64) -> list:
+                      per_sample=None, band_rows: int | None = None) -> list:
     """A linear MIP pyramid whose level 0 is `per_sample(level0)` and whose level ℓ ≥ 1 holds
     the mean of `per_sample` over the (2^ℓ s)² sub-samples of `fine` a texel covers, (side_l,
     side_l, C) float64. Built in bands of `band_rows` level-1 rows (the sub-sample level of an
-    SH map does not fit in memory at 1024², s = 4); each band is reduced by repeated 2×2 means
-    (`pyramid.box_down`), so the values are those of the full sub-sample pyramid."""
+    SH map does not fit in memory at 1024², s = 4; default: about 2^19 sub-samples a band);
+    each band is reduced by repeated 2×2 means (`pyramid.box_down`), so the values are those of
+    the full sub-sample pyramid."""
     f = per_sample if per_sample is not None else (lambda x: np.asarray(x, np.float64))
     n = level0.shape[0]
     n_lev = level_count(n, levels)
@@ -73,6 +74,8 @@ def continuum_pyramid(level0: np.ndarray, fine: np.ndarray, s: int, levels: int 
         return out
     k = level_shift(s)
     step = 2 * s                                  # sub-sample rows per level-1 row
+    if band_rows is None:
+        band_rows = max(1, (1 << 19) // (step * fine.shape[1]))
     bands = []
     for r in range(0, n // 2, band_rows):
         x = f(fine[r * step:min(n // 2, r + band_rows) * step])
