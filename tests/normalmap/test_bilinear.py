@@ -135,3 +135,10 @@ def test_stage_with_subsamples_is_byte_identical_and_differs_from_texels(tmp_pat
     b2, b1 = art.read_baselines(out["a"], "grooves"), art.read_baselines(out["one"], "grooves")
     np.testing.assert_array_equal(b2["mean"][0], b1["mean"][0])
     assert np.abs(b2["mean"][2] - b1["mean"][2]).max() > 1e-3
+
+
+def test_bilinear_samples_outside_1_2_4_is_bad_input(tmp_path):
+    from sgpipe.errors import BadInput
+    with pytest.raises(BadInput, match="1, 2, 4") as e:
+        make(tmp_path, extra=", bilinear_samples: 3")
+    assert "normalmap.bilinear_samples" in e.value.one_line()
