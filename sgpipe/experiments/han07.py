@@ -100,7 +100,7 @@ def subject_scene(subject: str, minification: float, size: int, work: Path) -> d
 
 def build_config(scene: dict, normal_map: Path, methods: list[str], *, lobes: int, spp: int,
                  material: dict = MATERIAL, light_scale: float = 1.0, taps: int = 8,
-                 footprint: str = "trilinear"):
+                 footprint: str = "trilinear", bilinear_samples: int = 1):
     """A validated root Config (through the schema, as a YAML file would be)."""
     from sgpipe.config.root import Config
     from sgpipe.config.schema import Context, build
@@ -110,7 +110,7 @@ def build_config(scene: dict, normal_map: Path, methods: list[str], *, lobes: in
                                "material": material["name"], "normal_map": str(normal_map)}]},
         "fit": {"materials": [{"name": material["name"], "model": material["model"],
                                "params": dict(material["params"])}]},
-        "normalmap": {"lobes": int(lobes)},
+        "normalmap": {"lobes": int(lobes), "bilinear_samples": int(bilinear_samples)},
         "render": {"camera": scene["camera"], "methods": list(methods), "spp": spp,
                    "background": False, "supersample": 1, "normalmap_max_taps": taps,
                    "normalmap_footprint": footprint,
@@ -158,7 +158,8 @@ def _score(img, ref, mask) -> dict:
 
 
 def fig2_cell(map_name: str, subject: str, minification: float, *, size: int, spp: int,
-              out: Path, lobes=LOBES, footprint: str = "trilinear") -> dict:
+              out: Path, lobes=LOBES, footprint: str = "trilinear",
+              bilinear_samples: int = 1) -> dict:
     """Every column of one (map, subject, minification) cell: {column: {image, psnr, flip} or
     {error}, "reference": {image}}."""
     nmap = DATA / MAPS[map_name]
@@ -168,8 +169,9 @@ def fig2_cell(map_name: str, subject: str, minification: float, *, size: int, sp
     runs = out / "runs" / map_name
     # the default lobe count renders the reference and the original baselines with it
     main = [b for b in ("toksvig", "normals_mip") if b in cols]
+    variant = dict(footprint=footprint, bilinear_samples=bilinear_samples)
     r = render(build_config(scene, nmap, ["vmf", *main, "reference"], lobes=DEFAULT_LOBES,
-                            spp=spp, footprint=footprint), runs / f"J{DEFAULT_LOBES}")
+                            spp=spp, **variant), runs / f"J{DEFAULT_LOBES}")
     if "error" in r:
         return {c: {"error": r["error"]} for c in cols + ["reference"]}
     ref, mask = r["reference"], r["_mask"]
@@ -183,20 +185,21 @@ def fig2_cell(map_name: str, subject: str, minification: float, *, size: int, sp
             continue
         if not (runs / f"J{j}" / "fit").is_dir():    # the same fit: reuse it (skipped as done)
             shutil.copytree(runs / f"J{DEFAULT_LOBES}" / "fit", runs / f"J{j}" / "fit")
-        rj = render(build_config(scene, nmap, ["vmf"], lobes=j, spp=spp, footprint=footprint),
+        rj = render(build_config(scene, nmap, ["vmf"], lobes=j, spp=spp, **variant),
                     runs / f"J{j}")
         res[f"vmf{j}"] = rj if "error" in rj else _score(rj["vmf"], ref, mask)
     for b in cols:              # the later baselines on their own: a failure stays theirs
         if b in res or b.startswith("vmf"):
             continue
         rb = render(build_config(scene, nmap, [b], lobes=DEFAULT_LOBES, spp=spp,
-                                 footprint=footprint), runs / f"J{DEFAULT_LOBES}")
+                                 **variant), runs / f"J{DEFAULT_LOBES}")
         res[b] = rb if "error" in rb else _score(rb[b], ref, mask)
     return res
 
 
 def fig2(out: Path, subjects, *, size: int, spp: int, minifications=MINIFICATIONS,
-         lobes=LOBES, log=print, footprint: str = "trilinear") -> dict:
+         lobes=LOBES, log=print, footprint: str = "trilinear",
+         bilinear_samples: int = 1) -> dict:
     """{(map, subject): {minification: cell}}."""
     table = {}
     for map_name, subject in subjects:
@@ -204,7 +207,7 @@ def fig2(out: Path, subjects, *, size: int, spp: int, minifications=MINIFICATION
         for m in minifications:
             t0 = time.perf_counter()
             cell = fig2_cell(map_name, subject, m, size=size, spp=spp, out=out, lobes=lobes,
-                             footprint=footprint)
+                             footprint=footprint, bilinear_samples=bilinear_samples)
             table[(map_name, subject)][m] = cell
             log(f"[han07] Fig 2 {map_name} {subject} {m:g}×: " + ", ".join(
                 f"{c} {v['psnr']:.2f}" if "psnr" in v else f"{c} missing"
@@ -282,6 +285,9 @@ def main(argv: list[str] | None = None) -> int:
                          "one cell.")
     ap.add_argument("--footprint", choices=("trilinear", "box"), default="trilinear",
                     help="render.normalmap_footprint of every normal-map method.")
+    ap.add_argument("--bilinear-samples", type=int, choices=(1, 2, 4), default=1,
+                    help="normalmap.bilinear_samples: pyramid levels ≥ 1 from s×s sub-samples "
+                         "per texel of the bilinear map.")
     ap.add_argument("--subjects", default=None,
                     help="Fig 2 only, for these map:subject pairs (e.g. grooves:sphere,"
                          "bumps:plane) at --minifications; writes <out>/han07_fig2.md and "
@@ -304,10 +310,12 @@ def main(argv: list[str] | None = None) -> int:
     size, spp = (32, 64) if a.quick else (64, 512)
     if a.quick:
         table = fig2(a.out, [("grooves", "plane")], size=size, spp=spp, minifications=(16,),
-                     lobes=(4, 8), log=log, footprint=a.footprint)
+                     lobes=(4, 8), log=log, footprint=a.footprint,
+                     bilinear_samples=a.bilinear_samples)
     else:
         table = fig2(a.out, [("grooves", "plane"), ("grooves", "sphere"), ("bumps", "plane")],
-                     size=size, spp=spp, log=log, footprint=a.footprint)
+                     size=size, spp=spp, log=log, footprint=a.footprint,
+                     bilinear_samples=a.bilinear_samples)
     f3r = None if a.quick else ndf.fig3_render(a.out, log=log)
     tg = targets(table)
     fig_dir = a.results.parent / "figures"
@@ -355,11 +363,12 @@ def fig2_only(a, log) -> int:
         pairs.append((map_name, subject))
     mins = tuple(float(m) for m in a.minifications.split(","))
     table = fig2(a.out, pairs, size=64, spp=512, minifications=mins, log=log,
-                 footprint=a.footprint)
+                 footprint=a.footprint, bilinear_samples=a.bilinear_samples)
     tg = targets(table)
     lines = [f"# Han07 Fig 2 cells (render.normalmap_footprint: {a.footprint})", "",
              f"`python -m sgpipe.experiments.han07 --out {a.out} --subjects {a.subjects} "
-             f"--minifications {a.minifications} --footprint {a.footprint}` in "
+             f"--minifications {a.minifications} --footprint {a.footprint} "
+             f"--bilinear-samples {a.bilinear_samples}` in "
              f"{time.perf_counter() - t0:.0f} s; cells: surface display PSNR (dB) / LDR-ꟻLIP.",
              ""] + _fig2_tables(table, columns()) + [
              "| target | subject | value | met |", "|---|---|---|---|"] + [
