@@ -109,17 +109,22 @@ def _grooves(side=128, period=64, tilt=35.0):
     return unit(np.stack([gx, gy, np.ones_like(gx)], -1))
 
 
-def _bilinear_normals(nrm, u, v):
-    """nm_bilinear at level 0 (texel centres at half-integers, row 0 = v = 1, repeat), unit."""
+def _bilinear_raw(nrm, u, v):
+    """nm_bilinear at level 0 (texel centres at half-integers, row 0 = v = 1, repeat) before
+    normalising (the kernels' bilinear mean at level 0)."""
     m = nrm.shape[0]
     x = (u % 1.0) * m - 0.5
     y = (1.0 - v % 1.0) * m - 0.5
     x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
     fx, fy = (x - x0)[..., None], (y - y0)[..., None]
     g = lambda r, c: nrm[r % m, c % m]  # noqa: E731
-    n = ((g(y0, x0) * (1 - fx) + g(y0, x0 + 1) * fx) * (1 - fy)
-         + (g(y0 + 1, x0) * (1 - fx) + g(y0 + 1, x0 + 1) * fx) * fy)
-    return unit(n)
+    return ((g(y0, x0) * (1 - fx) + g(y0, x0 + 1) * fx) * (1 - fy)
+            + (g(y0 + 1, x0) * (1 - fx) + g(y0 + 1, x0 + 1) * fx) * fy)
+
+
+def _bilinear_normals(nrm, u, v):
+    """The unit bilinear normal (what the reference shades)."""
+    return unit(_bilinear_raw(nrm, u, v))
 
 
 @pytest.mark.parametrize("texels,box_max", [(8.0, 0.1), (16.0, 0.25)])
@@ -166,18 +171,6 @@ def test_box_footprint_is_closer_to_the_box_average_off_the_texel_grid(texels, b
     assert err["box", "vmf"] < box_max, err
     assert err["box", "vmf"] < 0.4 * err["trilinear", "vmf"], err
     assert err["box", "toksvig"] < 1.02 * err["trilinear", "toksvig"], err
-
-
-def _bilinear_raw(nrm, u, v):
-    """_bilinear_normals before normalising (the kernels' bilinear mean at level 0)."""
-    m = nrm.shape[0]
-    x = (u % 1.0) * m - 0.5
-    y = (1.0 - v % 1.0) * m - 0.5
-    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
-    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
-    g = lambda r, c: nrm[r % m, c % m]  # noqa: E731
-    return ((g(y0, x0) * (1 - fx) + g(y0, x0 + 1) * fx) * (1 - fy)
-            + (g(y0 + 1, x0) * (1 - fx) + g(y0 + 1, x0 + 1) * fx) * fy)
 
 
 def test_box_level0_shades_a_grid_of_bilinear_taps_per_method():

@@ -1,13 +1,14 @@
-"""Issue 15's fidelity floors in CI: sg on GGX α 0.1 + red diffuse under the studio map and gmm
-on a Beckmann α 0.2 sphere under the sky with a sun, through the real stages (fit → precompute →
-render, 3×3 supersampled) at 48², against a two-seed Monte Carlo reference (box filter), surface
-display PSNR corrected for the reference's noise (benchmarks/bench_fidelity.py).
+"""Fidelity floors in CI: sg on GGX α 0.1 + red diffuse under the studio map, gmm on a Beckmann
+α 0.2 sphere under the sky with a sun, sg on a GGX α 0.1 sphere under that sun and under a point
+light alone, through the real stages (fit → precompute → render, 3×3 supersampled) at 48²,
+against a two-seed Monte Carlo reference (box filter), surface display PSNR corrected for the
+reference's noise (benchmarks/bench_fidelity.py).
 
 Each floor sits between the fidelity it guards and the regression it catches, and the regression
-is rendered here too: sg with two NDF lobes (`fit.ndf_sg.lobes: 2`, the old GGX fit), gmm
-without the environment's point set (`render.gmm_points: false`) and sg shading a GGX sphere's
-sun through its lobes (`envmap.pyramid_max_points: 0`) instead of the exact BRDF must fall below
-their floors."""
+is rendered here too where a setting brings it back: sg with two NDF lobes (`fit.ndf_sg.lobes:
+2`, the old GGX fit), gmm without the environment's point set (`render.gmm_points: false`) and
+sg shading the sun through its lobes (`envmap.pyramid_max_points: 0`) instead of the exact BRDF
+must fall below their floors."""
 
 from __future__ import annotations
 
@@ -73,6 +74,22 @@ def _report(tag: str, v: dict) -> None:
           f"{v['surface_floor_db']:.2f})")
 
 
+def _holds_floor(result: dict, method: str, floor: float, tag: str) -> None:
+    """The method clears its floor, and the reference's noise floor clears it by the margin."""
+    v = _surface(result, method)
+    _report(tag, v)
+    assert v["surface_floor_db"] > floor + NOISE_MARGIN_DB
+    assert v["surface_display_psnr_db"] >= floor
+
+
+def _falls_below(scene, method: str, overrides, floor: float, tag: str, truth: dict) -> None:
+    """The regression case, against the same reference, scores under the floor."""
+    r = _bench.measure(scene, (method,), overrides, reference=truth["reference"])
+    v = _surface(r, method)
+    _report(tag, v)
+    assert v["surface_display_psnr_db"] < floor
+
+
 @pytest.fixture(scope="module")
 def ggx_sg():
     """sg on the GGX scene with the default lobe rule; its reference is reused below."""
@@ -86,60 +103,39 @@ def sun_gmm():
                           spp=SUN_SPP)
 
 
-def test_sg_ggx_floor(ggx_sg):
-    v = _surface(ggx_sg, "sg")
-    _report("sg GGX lobe rule", v)
-    assert v["surface_floor_db"] > SG_FLOOR_DB + NOISE_MARGIN_DB
-    assert v["surface_display_psnr_db"] >= SG_FLOOR_DB
-
-
-def test_sg_floor_catches_two_lobe_ggx_fit(ggx_sg):
-    r = _bench.measure(GGX_SCENE, ("sg",), GGX_OVERRIDES + ("fit.ndf_sg.lobes=2",),
-                       reference=ggx_sg["reference"])
-    v = _surface(r, "sg")
-    _report("sg GGX 2 lobes", v)
-    assert v["surface_display_psnr_db"] < SG_FLOOR_DB
-
-
-def test_gmm_sun_floor(sun_gmm):
-    v = _surface(sun_gmm, "gmm")
-    _report("gmm sun with points", v)
-    assert v["surface_floor_db"] > GMM_FLOOR_DB + NOISE_MARGIN_DB
-    assert v["surface_display_psnr_db"] >= GMM_FLOOR_DB
-
-
-def test_gmm_floor_catches_missing_point_set(sun_gmm):
-    r = _bench.measure(SUN_SCENE, ("gmm",), SUN_OVERRIDES + ("render.gmm_points=false",),
-                       reference=sun_gmm["reference"])
-    v = _surface(r, "gmm")
-    _report("gmm sun without points", v)
-    assert v["surface_display_psnr_db"] < GMM_FLOOR_DB
-
-
 @pytest.fixture(scope="module")
 def sun_ggx_sg():
     """sg on a GGX α 0.1 sphere under the sky with its sun; its reference is reused below."""
     return _bench.measure(SUN_SCENE, ("sg",), SUN_GGX_OVERRIDES, spp=SUN_SPP)
 
 
+def test_sg_ggx_floor(ggx_sg):
+    _holds_floor(ggx_sg, "sg", SG_FLOOR_DB, "sg GGX lobe rule")
+
+
+def test_sg_floor_catches_two_lobe_ggx_fit(ggx_sg):
+    _falls_below(GGX_SCENE, "sg", GGX_OVERRIDES + ("fit.ndf_sg.lobes=2",), SG_FLOOR_DB,
+                 "sg GGX 2 lobes", ggx_sg)
+
+
+def test_gmm_sun_floor(sun_gmm):
+    _holds_floor(sun_gmm, "gmm", GMM_FLOOR_DB, "gmm sun with points")
+
+
+def test_gmm_floor_catches_missing_point_set(sun_gmm):
+    _falls_below(SUN_SCENE, "gmm", SUN_OVERRIDES + ("render.gmm_points=false",), GMM_FLOOR_DB,
+                 "gmm sun without points", sun_gmm)
+
+
 def test_sg_sun_ggx_floor(sun_ggx_sg):
-    v = _surface(sun_ggx_sg, "sg")
-    _report("sg GGX sun, exact BRDF at the point set", v)
-    assert v["surface_floor_db"] > SG_SUN_FLOOR_DB + NOISE_MARGIN_DB
-    assert v["surface_display_psnr_db"] >= SG_SUN_FLOOR_DB
+    _holds_floor(sun_ggx_sg, "sg", SG_SUN_FLOOR_DB, "sg GGX sun, exact BRDF at the point set")
 
 
 def test_sg_sun_floor_catches_sun_through_lobes(sun_ggx_sg):
-    r = _bench.measure(SUN_SCENE, ("sg",), SUN_GGX_OVERRIDES + ("envmap.pyramid_max_points=0",),
-                       reference=sun_ggx_sg["reference"])
-    v = _surface(r, "sg")
-    _report("sg GGX sun through the lobes", v)
-    assert v["surface_display_psnr_db"] < SG_SUN_FLOOR_DB
+    _falls_below(SUN_SCENE, "sg", SUN_GGX_OVERRIDES + ("envmap.pyramid_max_points=0",),
+                 SG_SUN_FLOOR_DB, "sg GGX sun through the lobes", sun_ggx_sg)
 
 
 def test_sg_point_light_ggx_floor():
     r = _bench.measure(SUN_SCENE, ("sg",), POINT_GGX_OVERRIDES, spp=SUN_SPP)
-    v = _surface(r, "sg")
-    _report("sg GGX point light, exact BRDF", v)
-    assert v["surface_floor_db"] > SG_POINT_FLOOR_DB + NOISE_MARGIN_DB
-    assert v["surface_display_psnr_db"] >= SG_POINT_FLOOR_DB
+    _holds_floor(r, "sg", SG_POINT_FLOOR_DB, "sg GGX point light, exact BRDF")
