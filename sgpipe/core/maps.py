@@ -216,16 +216,23 @@ def bordered_box_level(faces: np.ndarray, dtype=None, zero=None) -> np.ndarray:
     return faces_to_image(out)
 
 
-def cube_mip_chain(faces: np.ndarray) -> list[np.ndarray]:
-    """Box MIP chain (6, n, n, C) for n = N, N/2, …, 1: each parent is the solid-angle-weighted
-    mean of its 2×2 children (so ∫L dω is preserved at every level)."""
-    faces = np.asarray(faces, np.float64)
-    chain = [faces]
-    om = cubemap_solid_angles(faces.shape[1])
+def solid_angle_box_chain(maps: np.ndarray, omega: np.ndarray) -> list[np.ndarray]:
+    """Box MIP chain of K square maps (K, n, n, C) with texel solid angles omega (K, n, n), for
+    n = N, N/2, … while even: each parent is the solid-angle-weighted mean of its 2×2 children
+    (so ∫L dω is preserved at every level)."""
+    maps = np.asarray(maps, np.float64)
+    chain = [maps]
+    om = np.asarray(omega, np.float64)
+    k = maps.shape[0]
     while chain[-1].shape[1] > 1 and chain[-1].shape[1] % 2 == 0:
         f = chain[-1]
         n = f.shape[1] // 2
-        e = (f * om[..., None]).reshape(6, n, 2, n, 2, -1).sum(axis=(2, 4))
-        om = om.reshape(6, n, 2, n, 2).sum(axis=(2, 4))
+        e = (f * om[..., None]).reshape(k, n, 2, n, 2, -1).sum(axis=(2, 4))
+        om = om.reshape(k, n, 2, n, 2).sum(axis=(2, 4))
         chain.append(e / om[..., None])
     return chain
+
+
+def cube_mip_chain(faces: np.ndarray) -> list[np.ndarray]:
+    """Box MIP chain (6, n, n, C) for n = N, N/2, …, 1 of a cubemap (solid_angle_box_chain)."""
+    return solid_angle_box_chain(faces, cubemap_solid_angles(np.shape(faces)[1]))

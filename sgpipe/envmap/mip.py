@@ -8,23 +8,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from sgpipe.core.maps import (bordered_box_level, cube_mip_chain, dual_paraboloid_distortion,
-                              dual_paraboloid_solid_angles)
+                              dual_paraboloid_solid_angles, solid_angle_box_chain)
 from sgpipe.envmap._cube_jit import sample_dirs_bordered
 from sgpipe.envmap.maps import image_to_dual_paraboloid, sample_dual_paraboloid
 
 
 def dp_mip_chain(dp: np.ndarray, b: float) -> list[np.ndarray]:
     """Box MIP chain of a dual-paraboloid map (2, n, n, C), solid-angle weighted."""
-    dp = np.asarray(dp, np.float64)
-    chain = [dp]
-    om = dual_paraboloid_solid_angles(dp.shape[1], b)
-    while chain[-1].shape[1] > 1 and chain[-1].shape[1] % 2 == 0:
-        f = chain[-1]
-        n = f.shape[1] // 2
-        e = (f * om[..., None]).reshape(2, n, 2, n, 2, -1).sum(axis=(2, 4))
-        om = om.reshape(2, n, 2, n, 2).sum(axis=(2, 4))
-        chain.append(e / om[..., None])
-    return chain
+    return solid_angle_box_chain(dp, dual_paraboloid_solid_angles(np.shape(dp)[1], b))
 
 
 def lobe_solid_angle(kappa, a: float = 0.9):
