@@ -98,20 +98,13 @@ __kernel void sg_shade(SG_SHADE_ARGS)
     for (int k = 0; k < n_lights; ++k) {
         SG Lw = light_sg(lights[2 * k], lights[2 * k + 1], x);
         SG L = sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu);
-        if (L.lam >= SHARP_LIGHT) {
-            float3 lp = quat_rotate(qi, L.p);
-            float3 E = (float3)(0.0f);
-            if (lp.z > 0.0f && L.p.z > 0.0f)
-                E = sg_integral(L) * (lp.z * fh_hat(vis_theta(&vis, L.p), L.lam));
-            if (k < SHARP_CACHE) e_sharp[k] = E;
-            rd += mf_diffuse(m, kd, op, lp) * E;
-            if (ndf.w && lp.z > 0.0f)
-                rs += E * mf_M(m, tables, ks, op, lp) * ndf_table(tables, ndf, normalize(op + lp));
-            continue;
-        }
-        SG g = sg_product(L, cosg);
-        float3 fd = mf_diffuse(m, kd, op, lift(quat_rotate(qi, g.p), 0.05f));
-        rd += fd * sg_dot_visibility(g, vis_theta(&vis, g.p));
+        float3 lp;                     /* sharp: l in the normal-mapped frame */
+        float3 E = sg_light_diffuse(L, cosg, qi, &vis, &lp);
+        rd += mf_diffuse(m, kd, op, lp) * E;
+        if (L.lam < SHARP_LIGHT) continue;
+        if (k < SHARP_CACHE) e_sharp[k] = E;
+        if (ndf.w && lp.z > 0.0f)
+            rs += E * mf_M(m, tables, ks, op, lp) * ndf_table(tables, ndf, normalize(op + lp));
     }
     /* Specular: per NDF lobe the BRDF slice ρ*_s(i; o') as a warped SG lobe (eq 22) split in
      * SPEC_SUBLOBES isotropic sub-lobes (anisotropic warp), each times M_o and the cosine

@@ -13,7 +13,7 @@
  * (transport.h, mirroring sgpipe.transport.interp). Green06's G(ω) = exp((ω·μ − 1)/σ²) is the
  * SG of sg.h with p = μ, λ = 1/σ², amplitude w, so ∫ w G L dω = w Γ_L(μ, 1/σ²) — one accurate
  * pyramid lookup (cubemap.h gamma_lookup_acc + the point set), as `sg` does. Local lights
- * (render.lights) too: see tp_light_glossy / tp_light_diffuse.
+ * (render.lights) too: see tp_light_glossy and shading.h sg_light_diffuse.
  * tp_obj per object: (first vertex row, first face, Gaussians K, has data). */
 #include "sg.h"
 #include "ssdf.h"
@@ -26,17 +26,8 @@
 
 /* Local lights (render.lights) as the SGs of light_sg (sg's eq 42–43 form; distant-light
  * transport as the Gaussians were fitted, visibility by the SSDF): glossy w·⟨G, L⟩ per Gaussian
- * (a light sharper than SHARP_LIGHT: w·G(l)·∫L), diffuse f_d E max(0, n·l) f̂_h(θ_d(l), λ_L)
- * (sharp) or f_d (C* ⊗ L)·V^d (eq 42). */
-inline float3 tp_light_diffuse(SG Lw, float3 T, float3 B, float3 N, const Vis *vis) {
-    SG L = sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu);
-    if (L.lam >= SHARP_LIGHT)
-        return L.p.z > 0.0f ? sg_integral(L) * (L.p.z * fh_hat(vis_theta(vis, L.p), L.lam))
-                            : (float3)(0.0f);
-    SG g = sg_product(L, sg_clamped_cosine((float3)(0.0f, 0.0f, 1.0f)));
-    return sg_dot_visibility(g, vis_theta(vis, g.p));
-}
-
+ * (a light sharper than SHARP_LIGHT: w·G(l)·∫L), diffuse shading.h's sg_light_diffuse
+ * (f_d E max(0, n·l) f̂_h(θ_d(l), λ_L) when sharp, else f_d (C* ⊗ L)·V^d; eq 42). */
 inline float3 tp_light_glossy(float3 m, float lam, SG L) {
     if (L.lam >= SHARP_LIGHT)
         return exp(lam * (dot(m, L.p) - 1.0f)) * sg_integral(L);
@@ -112,9 +103,14 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
                 }
                 rd *= env_scale;
             }
-            for (int l = 0; l < n_lights; ++l)
-                rd += tp_light_diffuse(light_sg(lights[2 * l], lights[2 * l + 1], x), T, B, N,
-                                       &vis);
+            SG cosg = sg_clamped_cosine((float3)(0.0f, 0.0f, 1.0f));
+            float4 q0 = (float4)(0.0f, 0.0f, 0.0f, 1.0f);    /* no normal map */
+            for (int l = 0; l < n_lights; ++l) {
+                SG Lw = light_sg(lights[2 * l], lights[2 * l + 1], x);
+                float3 fdir;
+                rd += sg_light_diffuse(sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu), cosg, q0,
+                                       &vis, &fdir);
+            }
             rd *= tp_fd[gobj[gid]].xyz;
         }
     }

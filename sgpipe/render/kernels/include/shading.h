@@ -173,6 +173,23 @@ inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const flo
 #define SHARP_LIGHT 64.0f
 #endif
 
+/* One SG light L (local frame) through the diffuse side of Wang09 eq 39 / 42 with the SSDF
+ * visibility, to be multiplied by f_d at *fdir: a light at least SHARP_LIGHT sharp as its limit
+ * ∫L · max(0, n′·l) · f̂_h(θ_d(l), λ) (n′ the normal-mapped normal: l′ = qi·l, *fdir = l′), a
+ * broader one as (C* ⊗ L) · V^d with cosg the normal-mapped C* (*fdir: its lifted axis). */
+inline float3 sg_light_diffuse(SG L, SG cosg, float4 qi, const Vis *vis, float3 *fdir) {
+    if (L.lam >= SHARP_LIGHT) {
+        float3 lp = quat_rotate(qi, L.p);
+        *fdir = lp;
+        if (lp.z > 0.0f && L.p.z > 0.0f)
+            return sg_integral(L) * (lp.z * fh_hat(vis_theta(vis, L.p), L.lam));
+        return (float3)(0.0f);
+    }
+    SG g = sg_product(cosg, L);
+    *fdir = lift(quat_rotate(qi, g.p), 0.05f);
+    return sg_dot_visibility(g, vis_theta(vis, g.p));
+}
+
 /* Wang09 eq 39 with the environment's SG light fit, as one sum: Σ_k f_d · (C* ⊗ L*_k) · V^d
  * (sharp lobes: see SHARP_LIGHT). Used by sg, and by gmm and fis for their diffuse term (as
  * Colbert & Křivánek use an irradiance map). */
@@ -184,16 +201,9 @@ inline float3 diffuse_env_sg(__global const float *m, float3 kd, float3 op, floa
     for (int k = 0; k < n_env_sg; ++k) {
         float4 a = env_sg[2 * k], b = env_sg[2 * k + 1];
         SG L = sg_make(to_local(a.xyz, T, B, N), a.w, b.xyz * env_scale);
-        if (L.lam >= SHARP_LIGHT) {
-            float3 lp = quat_rotate(qi, L.p);
-            if (lp.z > 0.0f && L.p.z > 0.0f)
-                acc += mf_diffuse(m, kd, op, lp)
-                       * (sg_integral(L) * (lp.z * fh_hat(vis_theta(vis, L.p), L.lam)));
-            continue;
-        }
-        SG g = sg_product(cosg, L);
-        float3 fd = mf_diffuse(m, kd, op, lift(quat_rotate(qi, g.p), 0.05f));
-        acc += fd * sg_dot_visibility(g, vis_theta(vis, g.p));
+        float3 fdir;
+        float3 E = sg_light_diffuse(L, cosg, qi, vis, &fdir);
+        acc += mf_diffuse(m, kd, op, fdir) * E;
     }
     return acc;
 }
