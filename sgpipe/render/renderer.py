@@ -250,9 +250,9 @@ class Renderer:
 
     def kernel(self, method: str):
         """The method's kernel (program built once per context and defines; kernel reused)."""
-        if any(name == "gmm_mip" for _, name in METHODS[method].parameters):
-            self._gmm_mip()
         if method not in self._kernels:
+            if any(name == "gmm_mip" for _, name in METHODS[method].parameters):
+                self._gmm_mip()
             name = METHODS[method].kernel
             t0 = time.perf_counter()
             prg = opencl.build_program(self.ctx, name, self.defines(method), headers=self.headers)
