@@ -113,33 +113,34 @@ def read_sh_transfer(folder: str | Path, obj: str) -> tuple[np.ndarray, np.ndarr
     return arrays["transfer"], arrays["diffuse_rgb"]
 
 
-def read_sh_transfer_rgb(folder: str | Path, obj: str) -> tuple[np.ndarray, np.ndarray]:
-    """(full transfer (X, 25, 3) float32 = shadowed + interreflected per colour channel,
-    diffuse f_d RGB): diffuse radiance_c = f_d,c · Σ_k L_k,c t_k,c. Files written before the
-    interreflected part existed (no `transfer_indirect`) read as shadowed only."""
+def read_sh_transfer_parts(folder: str | Path, obj: str):
+    """(full transfer (X, 25, 3) float32 = shadowed + interreflected per colour channel, the
+    interreflected part alone (X, 25, 3) or None when the stage ran without
+    `transport.indirect`, diffuse f_d RGB), from one read of the file."""
     path = Path(folder) / object_file(obj, SH_TRANSFER)
     arrays = read_npz(path)
     t = np.asarray(arrays["transfer"], np.float32)
     full = np.repeat(t[..., None], 3, axis=-1)
+    ind = None
     if "transfer_indirect" in arrays:
         ind = arrays["transfer_indirect"]
         if ind.shape != full.shape:
             raise BadInput(f"transfer_indirect has shape {ind.shape}, expected {full.shape}",
                            file=path, key="transfer_indirect")
         full = full + ind
-    return full, arrays["diffuse_rgb"]
+        ind = np.asarray(ind, np.float32)
+    return full, ind, arrays["diffuse_rgb"]
 
 
-def read_sh_transfer_indirect(folder: str | Path, obj: str) -> np.ndarray | None:
-    """The interreflected part of the transfer alone, (X, 25, 3) float32, or None when the
-    stage ran without `transport.indirect`."""
-    arrays = read_npz(Path(folder) / object_file(obj, SH_TRANSFER))
-    if "transfer_indirect" not in arrays:
-        return None
-    return np.asarray(arrays["transfer_indirect"], np.float32)
+def read_sh_transfer_rgb(folder: str | Path, obj: str) -> tuple[np.ndarray, np.ndarray]:
+    """(full transfer (X, 25, 3) float32 = shadowed + interreflected per colour channel,
+    diffuse f_d RGB): diffuse radiance_c = f_d,c · Σ_k L_k,c t_k,c. Files written before the
+    interreflected part existed (no `transfer_indirect`) read as shadowed only."""
+    full, _, fd = read_sh_transfer_parts(folder, obj)
+    return full, fd
 
 
 __all__ = ["GAUSSIANS", "SH_TRANSFER", "GEOMETRY", "REPORT", "object_file", "write_object",
            "read_packed_gaussians", "read_sh_transfer", "read_sh_transfer_rgb",
-           "read_sh_transfer_indirect", "N_VIEWS",
+           "read_sh_transfer_parts", "N_VIEWS",
            "oct_decode", "sigma_decode", "unpack_views", "decode_gaussians", "read_gaussians"]

@@ -126,22 +126,22 @@ def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None,
     None). `points`: the environment's point set (directions (K, 3) in the map's frame,
     energies (K, 3)) that objects with SSDF visibility shade as small lights (merge_points,
     tp_suns, turned to world): tp_light_sh holds the whole map's coefficients, the map's minus
-    the points' (Σ_k E_k Y(c_k)), and the points'. tp_sh and tp_sh_ind are (X·25·3) floats, vertex-major, then coefficient, then RGB
-    (the kernel's vload3 per coefficient)."""
+    the points' (Σ_k E_k Y(c_k)), and the points'. tp_sh and tp_sh_ind are (X·25·3) floats,
+    vertex-major, then coefficient, then RGB (the kernel's vload3 per coefficient)."""
     light_sh = np.asarray(light_sh, np.float64).reshape(-1, 3)
     pts_sh = np.zeros_like(light_sh)
-    if points is not None and len(points[0]) and len(light_sh):
-        from sgpipe.core.sh import sh_eval
-        lmax = int(round(np.sqrt(len(light_sh)))) - 1
-        pts_sh = sh_eval(np.asarray(points[0], np.float64), lmax).T @ np.asarray(points[1],
-                                                                               np.float64)
-    light_sh, pts_sh = rotate_sh(light_sh, rotation), rotate_sh(pts_sh, rotation)
     suns, n_suns = np.zeros((1, 2, 4), np.float32), 0
     if points is not None and len(points[0]):
+        if len(light_sh):
+            from sgpipe.core.sh import sh_eval
+            lmax = int(round(np.sqrt(len(light_sh)))) - 1
+            pts_sh = (sh_eval(np.asarray(points[0], np.float64), lmax).T
+                      @ np.asarray(points[1], np.float64))
         suns = merge_points(*points)
         n_suns = len(suns)
         if rotation is not None:
             suns[:, 0, :3] = suns[:, 0, :3] @ np.asarray(rotation, np.float32).T
+    light_sh, pts_sh = rotate_sh(light_sh, rotation), rotate_sh(pts_sh, rotation)
     rows, faces, gauss, sh, ind, fd = [], [], [], [], [], []
     v0 = f0 = 0
     K = max([o["sigma"].shape[2] for o in objects if o is not None] or [1])
@@ -189,7 +189,7 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
     `<out>/transport/`. The kernel indexes them with the frame's SSDF-mesh triangles, so each
     object's transport mesh must be its visibility mesh (`ssdf_faces`, per object or None)."""
     from sgpipe.artifacts.transport import (GEOMETRY, object_file, read_gaussians,
-                                            read_sh_transfer_indirect, read_sh_transfer_rgb)
+                                            read_sh_transfer_parts)
     from sgpipe.io import read_npz
     folder = Path(out_dir) / "transport"
     if cfg.transport is None or not (folder / "manifest.json").is_file():
@@ -199,7 +199,7 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
     out = []
     for k, spec in enumerate(cfg.scene.objects):
         mu, sigma, w, _ = read_gaussians(folder, spec.name)
-        transfer, fd = read_sh_transfer_rgb(folder, spec.name)
+        transfer, indirect, fd = read_sh_transfer_parts(folder, spec.name)
         faces = read_npz(folder / object_file(spec.name, GEOMETRY))["faces"]
         ref = ssdf_faces[k]
         if ref is None or np.shape(ref) != np.shape(faces) or not np.array_equal(ref, faces):
@@ -209,7 +209,7 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
                            "`visibility:` section)", file=folder / spec.name,
                            key="transport.sphere_subdivisions")
         out.append(dict(mu=mu, sigma=sigma, w=w, transfer=transfer, diffuse_rgb=fd, faces=faces,
-                        indirect=read_sh_transfer_indirect(folder, spec.name)))
+                        indirect=indirect))
     return out
 
 
@@ -237,6 +237,6 @@ def upload_transport(renderer, arrays: dict) -> None:
     renderer.static.update(dev)
 
 
-__all__ = ["MAX_GAUSSIANS", "merge_points", "view_tables", "sh_rotation_matrix", "rotate_sh", "pack_gaussians",
-           "rgb_transfer",
-           "transport_arrays", "load_transport_objects", "attach_transport", "upload_transport"]
+__all__ = ["MAX_GAUSSIANS", "merge_points", "view_tables", "sh_rotation_matrix", "rotate_sh",
+           "pack_gaussians", "rgb_transfer", "transport_arrays", "load_transport_objects",
+           "attach_transport", "upload_transport"]
