@@ -46,6 +46,21 @@ MATERIAL = {"name": "glossy", "model": "blinn_phong",
 LIGHT_PLANE = (0.75, 0.5, 0.433)
 LIGHT_SPHERE = (0.55, 0.45, 0.70)
 IRRADIANCE = 1.5
+
+
+def _defaults() -> tuple[str, int]:
+    """The product's render.normalmap_footprint and normalmap.bilinear_samples defaults, which
+    the experiment runs unless told otherwise."""
+    import dataclasses
+
+    from sgpipe.config.sections.normalmap import NormalmapSection
+    from sgpipe.config.sections.render import RenderSection
+    foot = next(f.default for f in dataclasses.fields(RenderSection)
+                if f.name == "normalmap_footprint")
+    return foot, NormalmapSection().bilinear_samples
+
+
+FOOTPRINT, BILINEAR_SAMPLES = _defaults()
 PLANE_FOV = 20.0                          # the plane's central 2 × 2 of its 6 × 6 fills the frame
 SPHERE_EYE, SPHERE_FOV = 4.0, 32.0
 
@@ -100,7 +115,7 @@ def subject_scene(subject: str, minification: float, size: int, work: Path) -> d
 
 def build_config(scene: dict, normal_map: Path, methods: list[str], *, lobes: int, spp: int,
                  material: dict = MATERIAL, light_scale: float = 1.0, taps: int = 8,
-                 footprint: str = "trilinear", bilinear_samples: int = 1):
+                 footprint: str = FOOTPRINT, bilinear_samples: int = BILINEAR_SAMPLES):
     """A validated root Config (through the schema, as a YAML file would be)."""
     from sgpipe.config.root import Config
     from sgpipe.config.schema import Context, build
@@ -158,8 +173,8 @@ def _score(img, ref, mask) -> dict:
 
 
 def fig2_cell(map_name: str, subject: str, minification: float, *, size: int, spp: int,
-              out: Path, lobes=LOBES, footprint: str = "trilinear",
-              bilinear_samples: int = 1) -> dict:
+              out: Path, lobes=LOBES, footprint: str = FOOTPRINT,
+              bilinear_samples: int = BILINEAR_SAMPLES) -> dict:
     """Every column of one (map, subject, minification) cell: {column: {image, psnr, flip} or
     {error}, "reference": {image}}."""
     nmap = DATA / MAPS[map_name]
@@ -198,8 +213,8 @@ def fig2_cell(map_name: str, subject: str, minification: float, *, size: int, sp
 
 
 def fig2(out: Path, subjects, *, size: int, spp: int, minifications=MINIFICATIONS,
-         lobes=LOBES, log=print, footprint: str = "trilinear",
-         bilinear_samples: int = 1) -> dict:
+         lobes=LOBES, log=print, footprint: str = FOOTPRINT,
+         bilinear_samples: int = BILINEAR_SAMPLES) -> dict:
     """{(map, subject): {minification: cell}}."""
     table = {}
     for map_name, subject in subjects:
@@ -283,9 +298,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true",
                     help="Smoke run (≤ 60 s): grooves plane at 16× only, 32², 64 spp; Fig 7 on "
                          "one cell.")
-    ap.add_argument("--footprint", choices=("trilinear", "box"), default="trilinear",
+    ap.add_argument("--footprint", choices=("trilinear", "box"), default=FOOTPRINT,
                     help="render.normalmap_footprint of every normal-map method.")
-    ap.add_argument("--bilinear-samples", type=int, choices=(1, 2, 4), default=1,
+    ap.add_argument("--bilinear-samples", type=int, choices=(1, 2, 4), default=BILINEAR_SAMPLES,
                     help="normalmap.bilinear_samples: pyramid levels ≥ 1 from s×s sub-samples "
                          "per texel of the bilinear map.")
     ap.add_argument("--subjects", default=None,
@@ -339,7 +354,7 @@ def main(argv: list[str] | None = None) -> int:
     (a.out / "han07.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
     write_report(a.results, table, f7, f3, f3r, tg, sheets, columns(), missing_baselines(),
                  size=size, spp=spp, seconds=time.perf_counter() - t0, quick=a.quick,
-                 footprint=a.footprint,
+                 footprint=a.footprint, bilinear_samples=a.bilinear_samples,
                  command="python -m sgpipe.experiments.han07 " + " ".join(
                      sys.argv[1:] if argv is None else argv))
     for t in tg:

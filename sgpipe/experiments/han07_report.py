@@ -34,7 +34,7 @@ def _fig2_tables(table: dict, cols: list[str]) -> list[str]:
 
 def write_report(path: Path, table, f7, f3, f3r, tg, sheets, cols, missing, *, size: int,
                  spp: int, seconds: float,
-                 quick: bool, command: str, footprint: str = "trilinear") -> Path:
+                 quick: bool, command: str, footprint: str, bilinear_samples: int) -> Path:
     from sgpipe.experiments import han07 as H
     from sgpipe.experiments import han07_ndf as N
     L = ["# Results — Han07 normal-map filtering (Fig 2, 7, 3; issue 16)", "",
@@ -55,7 +55,10 @@ def write_report(path: Path, table, f7, f3, f3r, tg, sheets, cols, missing, *, s
           "anisotropic footprint (`normalmap_max_taps: 8`)"
           + ("; `normalmap_footprint: box`: the texels of the finest level where the pixel's "
              "box overlaps ≤ 9 of them, weighted by overlap, lobes kept apart (docs/HAN07.md)"
-             if footprint == "box" else "") + "; `vmfJ` = the vMF method with J "
+             if footprint == "box" else "; `normalmap_footprint: trilinear`")
+          + f"; pyramid levels ≥ 1 fitted to {bilinear_samples} × {bilinear_samples} "
+          "sub-samples per texel of the bilinearly read map (`normalmap.bilinear_samples`)"
+          + "; `vmfJ` = the vMF method with J "
           "lobes (`normalmap.lobes`). Ground truth: `reference`, the unfiltered map, box pixel "
           f"filter, {spp} spp. Cells: display PSNR (dB) / LDR-ꟻLIP over the surface pixels "
           "(sgpipe.metrics.compare_images); `ref. σ / mean`: the reference's mean per-pixel "

@@ -8,7 +8,7 @@ the normal-map kernels `vmf`, `normals_mip`, `toksvig`, `engine_bake`, `nm_sh`
 
 Layout (float4 `nm_data`): per map and level ℓ (side m) first the lobes, texel-major in image
 rows (row 0 = v = 1) then lobe j: (α_j, α_j·r_j) — eq 24's linear textures, interpolated before
-κ and μ are recovered — then the plain MIP of the normals (mean.xyz, 0) per texel, then the SH
+κ and μ are recovered — then the plain MIP of the normals (mean.xyz, |mean|) per texel, then the SH
 NDF coefficients γ_lm (⌈K/4⌉ float4 per texel, K = (l* + 1)², zero-padded).
 `nm_levels` int4 per (map, level): (lobe offset, side, mean offset, SH offset). `nm_info` int4
 per scene object: (first level row, levels, lobes J, has map). `nm_brdf` NM_BRDF_STRIDE floats
@@ -110,6 +110,7 @@ class NormalMapData:
                                           np.asarray(ar, np.float32)], -1).reshape(-1, 4)
                     mn = np.zeros((m * m, 4), np.float32)
                     mn[:, :3] = np.asarray(mean, np.float32).reshape(-1, 3)
+                    mn[:, 3] = np.linalg.norm(mn[:, :3], axis=1)   # the bake's per-texel |n̄|
                     sh = np.zeros((0, 4), np.float32)
                     if p.gamma is not None:
                         g = np.asarray(p.gamma[lv], np.float32).reshape(m * m, -1)
@@ -199,7 +200,7 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
            for p, (model, param) in zip(pyramids, lobes)]
     data = NormalMapData.pack(pyramids, [prm for _, prm in lobes], taps,
                               [BRDF_MODELS[mdl] for mdl, _ in lobes], rho,
-                              footprint=getattr(cfg.render, "normalmap_footprint", "trilinear"))
+                              footprint=getattr(cfg.render, "normalmap_footprint", "box"))
     light_sh = None
     if cfg.envmap is not None:
         from sgpipe.artifacts.envmap import read_light_sh

@@ -2,7 +2,7 @@
 nm_sh per pixel against numpy (the trilinear γ_lm of sgpipe.normalmap.sh's pyramid × the
 BRDF's ρ̂_l, Lambert ρ̂ for the diffuse term, the cosine at the MIP normal); against the exact
 average of the BRDF over a texel's normals (the ground truth of eq 4); engine_bake's
-Blinn–Phong lobe (one vMF of κ(|n̄|), eq 20) against numpy."""
+Blinn–Phong lobe (one vMF of κ(|n̄|), eq 20) against numpy, its baked per-texel |n̄|."""
 
 from __future__ import annotations
 
@@ -15,9 +15,13 @@ from sgpipe.core.sh import sh_eval, sh_irradiance_coeffs
 from sgpipe.normalmap.pyramid import mean_normal_pyramid
 from sgpipe.normalmap.sh import ndf_sh_pyramid
 from sgpipe.normalmap.vmf import bilinear
-from sgpipe.render.normalmap_data import NormalMapPyramid, specular_sh_coeffs
+from sgpipe.render.envdata import EnvData
+from sgpipe.render.materials import pack_materials
+from sgpipe.render.normalmap_data import (BRDF_MODELS, NormalMapData, NormalMapPyramid,
+                                          attach_normalmaps, specular_sh_coeffs)
+from sgpipe.render.renderer import ObjectShading, Renderer
 from tests.normalmap.render_mirror import (banerjee_kappa, blinn_lobe, directional, eq20_lobe,
-                                           flat_frame, g1_beckmann, renderer,
+                                           flat_frame, g1_beckmann, material, renderer,
                                            single_lobe_pyramid, unit)
 
 SIDE = 16
@@ -129,3 +133,58 @@ def test_engine_bake_blinn_phong_lobe():
     ref = np.array([0.2 / math.pi * max(mu @ LIGHT, 0) + 0.8 * blinn_lobe(mu, o, LIGHT, sp, norm)
                     for o in views])
     np.testing.assert_allclose(img, ref, rtol=2e-3)
+
+
+def test_engine_bake_filters_the_texels_lengths_as_a_roughness_texture():
+    """engine_bake's r is baked per texel (each texel's own |n̄|) and filtered like a
+    roughness texture: between level-1 texels of different directions the trilinear mean of
+    their lengths, not the length of their trilinear mean (Toksvig's on-the-fly r, which the
+    direction change shortens). Pixels between level 0 and 1 and between 1 and 2 (lod 0.6 and
+    1.5) against numpy; and the two differ (the test can tell them apart)."""
+    normals = _map(7, spread=0.6)
+    pyr = _sh_pyramid(normals, 2)
+    lengths = [np.linalg.norm(m.astype(np.float64), axis=-1, keepdims=True) for m in pyr.mean]
+    n, s, kd, ks = 12, 40.0, 0.1, 0.9
+    rng = np.random.default_rng(8)
+    uv = rng.uniform(0, 1, (n, 2))
+    lods = np.where(np.arange(n) % 2 == 0, 0.6, 1.5)
+    duv = np.stack([np.exp2(lods) / SIDE, np.zeros(n), np.zeros(n), np.exp2(lods) / SIDE], 1)
+    views = unit(np.tile([0.1, 0.2, 1.0], (n, 1)) + rng.normal(0, 0.1, (n, 3)))
+    img = renderer("blinn_phong", s, pyr, kd=kd, ks=ks, lights=[directional(LIGHT)]
+                   ).shade("engine_bake", flat_frame(views, uv, duv))[:, 0]
+    ref, ref_toksvig_r = [], []
+    for (u, v), lod, o in zip(uv, lods, views):
+        mean = _trilinear(pyr.mean, u, v, lod)
+        nbar = unit(mean)
+        for r, out in ((_trilinear(lengths, u, v, lod)[0], ref),
+                       (np.linalg.norm(mean), ref_toksvig_r)):
+            sp, norm = eq20_lobe(s, banerjee_kappa(min(r, 1 - 1e-7)))
+            out.append(kd / math.pi * max(nbar @ LIGHT, 0)
+                       + ks * blinn_lobe(nbar, o, LIGHT, sp, norm))
+    np.testing.assert_allclose(img, ref, rtol=3e-3)
+    assert np.max(np.abs(np.array(ref_toksvig_r) / np.array(ref) - 1)) > 0.02
+
+
+def test_engine_bake_between_level0_texels_is_the_bare_material():
+    """Box footprint at level 0: every tap reads the baked r = 1 of level 0, so engine_bake
+    shades each tap's bilinear normal with the bare material, exactly as normals_mip does —
+    the interpolated normal's shortening between two texels is not roughness (the reference
+    reads the normalised bilinear normal)."""
+    normals = _map(9, spread=0.8)
+    pyr = _sh_pyramid(normals, 2)
+    n, s = 16, 60.0
+    rng = np.random.default_rng(10)
+    uv = rng.uniform(0, 1, (n, 2))
+    duv = np.tile([1.0 / SIDE, 0, 0, 1.0 / SIDE], (n, 1))
+    views = unit(np.tile([0.0, 0.1, 1.0], (n, 1)) + rng.normal(0, 0.2, (n, 3)))
+    out = {}
+    for method in ("engine_bake", "normals_mip", "toksvig"):
+        _, m = material("blinn_phong", s, 0.1, 0.9)
+        r = Renderer(env=EnvData.constant(0.0), materials=pack_materials([m]),
+                     objects=[ObjectShading(0, normal_map=-1)], lights=[directional(LIGHT)])
+        attach_normalmaps(r, NormalMapData.pack([pyr], [s], 1, [BRDF_MODELS["blinn_phong"]],
+                                                footprint="box").with_environment(None, False))
+        out[method] = r.shade(method, flat_frame(views, uv, duv))[:, 0]
+    np.testing.assert_allclose(out["engine_bake"], out["normals_mip"], rtol=1e-5, atol=1e-7)
+    # Toksvig takes the shortening for roughness: it differs where taps fall between texels
+    assert np.max(np.abs(out["toksvig"] - out["normals_mip"])) > 0.05 * out["normals_mip"].max()

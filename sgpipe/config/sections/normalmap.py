@@ -29,7 +29,7 @@ class NormalmapSection:
         "Sub-samples s per finest-texel axis of the bilinearly interpolated map (as the "
         "reference and the renderer read it) from which every level ≥ 1 is built: s × s per "
         "texel at the sub-texel centres; 1 = the texel-centre normals only (Han07 eq 9 on the "
-        "texels). Cost: the vMF fit grows about s²×.", 1)
+        "texels). Cost: the vMF fit grows about s²×.", 2)
     align: bool = doc("Align lobes across neighbouring texels and levels (Han07 §7.3, eq 23) "
                       "so that trilinear interpolation of the textures stays accurate.", True)
     align_strength: float = doc("C′ of Han07's appendix: the eq 23 pull of a lobe's axis "

@@ -179,7 +179,7 @@ class RenderSection:
         "weighted by its overlap and its lobes kept as they are (at level 0: a grid of up to "
         "4 × 4 bilinear-normal taps, each its own lobe); an elongated footprint whose box needs "
         "a coarser level than the taps keeps the taps. About 4× trilinear's cost for vmf "
-        "(docs/HAN07.md).", "trilinear")
+        "(docs/HAN07.md).", "box")
 
     def validate(self):
         if self.compare_to is not None and self.compare_to not in self.methods:

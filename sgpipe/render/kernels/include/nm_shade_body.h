@@ -103,6 +103,9 @@
         l0 += info.x; l1 += info.x;
     }
     float3 mean_t = (float3)(0.0f, 0.0f, 1.0f);
+    /* the texels' own mean-normal lengths (slot w) filtered as the normals are: what an engine
+     * bakes per texel and samples like a roughness texture (engine_bake, nm_sh's lobe) */
+    float rbake = 1.0f;
 #if NM_FILTER == NM_VMF
     float4 lob[NM_MAX_LOBES];
     int nl = min(info.z, NM_MAX_LOBES);
@@ -123,7 +126,8 @@
     int at0 = box && l0 == info.x;
     int n0c = min(ntap, NM_MAX_L0);
     float4 n0s[NM_MAX_L0];
-    for (int k = 0; k < n0c; ++k) n0s[k] = (float4)(0.0f);
+    float n0r[NM_MAX_L0];
+    for (int k = 0; k < n0c; ++k) { n0s[k] = (float4)(0.0f); n0r[k] = 0.0f; }
 #endif
 #if NM_FILTER == NM_SH
     int nsh = info.w ? min((int)bp[3], 4 * NM_MAX_SH4) : 0;
@@ -135,8 +139,11 @@
     if (nbx > 0) {                      /* box footprint above level 0: texels by overlap */
         int4 lv = nm_levels[l0];
         mean_t = (float3)(0.0f);
+        rbake = 0.0f;
         for (int t = 0; t < nbx; ++t) {
-            mean_t += bw[t] * nm_data[lv.z + bidx[t]].xyz;
+            float4 mt = nm_data[lv.z + bidx[t]];
+            mean_t += bw[t] * mt.xyz;
+            rbake += bw[t] * mt.w;
 #if NM_FILTER == NM_SH
             for (int c = 0; c < k4; ++c) {
                 float4 v = bw[t] * nm_data[lv.w + bidx[t] * k4 + c];
@@ -146,12 +153,18 @@
         }
     } else if (info.w) {
         mean_t = (float3)(0.0f);
+        rbake = 0.0f;
         for (int k = 0; k < ntap; ++k) {
             float2 uvk = uv0 + (float)(k % nx) * du + (float)(k / nx) * dv;
-            float3 mk = nm_trilinear(nm_data, nm_levels, l0, l1, f, 1, 1, 0, uvk).xyz;
+            float4 mk4 = nm_trilinear(nm_data, nm_levels, l0, l1, f, 1, 1, 0, uvk);
+            float3 mk = mk4.xyz;
             mean_t += mk;
+            rbake += mk4.w;
 #if NM_FILTER != NM_VMF && NM_FILTER != NM_SH
-            if (at0) n0s[k % NM_MAX_L0] += (float4)(1.0f, mk);
+            if (at0) {
+                n0s[k % NM_MAX_L0] += (float4)(1.0f, mk);
+                n0r[k % NM_MAX_L0] += mk4.w;
+            }
 #endif
 #if NM_FILTER == NM_VMF
             if (at0) {
@@ -176,6 +189,7 @@
 #endif
         }
         mean_t /= (float)ntap;
+        rbake /= (float)ntap;
 #if NM_FILTER == NM_VMF
         for (int j = 0; j < nl; ++j) lob[j] /= (float)ntap;
 #endif
@@ -186,6 +200,11 @@
     float3 mean = to_world(mean_t, T, B, N);
     float rl = length(mean);
     float3 nbar = rl > 0.0f ? mean / rl : N;
+#if NM_FILTER == NM_BAKE || NM_FILTER == NM_SH
+    float rlobe = fmin(rbake, 1.0f);
+#else
+    float rlobe = rl;     /* Toksvig: the length of the filtered mean, computed per fetch */
+#endif
 
     /* The pixel's specular lobes: axis (world), weight, Blinn–Phong exponent e with its
      * normalisation, microfacet roughness a with its D amplitude (nm_shade.h). */
@@ -242,7 +261,7 @@
 #endif
         for (int k = 0; k < nsrc; ++k) {
             float3 ak = nbar;
-            float rk = rl, wk = 1.0f, amp;
+            float rk = rlobe, wk = 1.0f, amp;
 #if NM_FILTER != NM_SH
             if (at0) {                                /* box, level 0: the tap's lobe */
                 if (n0s[k].x <= 0.0f) continue;
@@ -250,6 +269,9 @@
                 rk = length(mk);
                 if (rk <= 0.0f) continue;
                 ak = mk / rk;
+#if NM_FILTER == NM_BAKE
+                rk = fmin(n0r[k] / n0s[k].x, 1.0f);
+#endif
                 wk = n0s[k].x / (float)ntap;
             }
 #endif
