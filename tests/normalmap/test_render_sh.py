@@ -21,8 +21,9 @@ from sgpipe.render.normalmap_data import (BRDF_MODELS, NormalMapData, NormalMapP
                                           attach_normalmaps, specular_sh_coeffs)
 from sgpipe.render.renderer import ObjectShading, Renderer
 from tests.normalmap.render_mirror import (banerjee_kappa, blinn_lobe, directional, eq20_lobe,
-                                           flat_frame, g1_beckmann, material, renderer,
-                                           single_lobe_pyramid, unit)
+                                           flat_frame, g1_beckmann, material,
+                                           microfacet_lobe, renderer, single_lobe_pyramid,
+                                           unit)
 
 SIDE = 16
 LIGHT = unit([0.35, -0.25, 0.9])
@@ -51,9 +52,20 @@ def _trilinear(levels, u, v, lod):
 
 def _nm_sh_pixel(model, param, kd, ks, pyr, lmax, uv, lod, view):
     """numpy eq 12 for one pixel of the flat frame (n = z): diffuse Σ_{l≤2} Â_l γ_lm Y_lm(i),
-    specular max(Σ ρ̂_l γ_lm Y_lm(h), 0) with the model's other factors at n̄."""
-    g = _trilinear(pyr.gamma, uv[0], uv[1], lod)
+    specular max(Σ ρ̂_l γ_lm Y_lm(h), 0) with the model's other factors at n̄. Below lod 1,
+    level 0's weight 1 − f is the bare material at the bilinear normal (a delta NDF) and γ_lm
+    level 1's alone, weighted f."""
+    lod = max(lod, 0.0)
     mean = _trilinear(pyr.mean, uv[0], uv[1], lod)
+    if lod >= 1.0:
+        g, base = _trilinear(pyr.gamma, uv[0], uv[1], lod), 0.0
+    else:
+        g = lod * bilinear(pyr.gamma[1].astype(np.float64), uv[0], uv[1])
+        n0 = unit(bilinear(pyr.mean[0].astype(np.float64), uv[0], uv[1]))
+        o, i = unit(view), LIGHT
+        spec0 = (blinn_lobe(n0, o, i, param, (param + 2) / (8 * math.pi))
+                 if model == "blinn_phong" else microfacet_lobe(model, param, 1.0, n0, o, i))
+        base = (1 - lod) * (kd / math.pi * max(n0 @ i, 0.0) + ks * spec0)
     nbar = unit(mean)
     o = unit(view)
     i = LIGHT
@@ -73,7 +85,7 @@ def _nm_sh_pixel(model, param, kd, ks, pyr, lmax, uv, lod, view):
         else:
             co = nbar @ o
             spec = g1_beckmann(co, param) * g1_beckmann(ci, param) * reff / co
-    return kd / math.pi * diff + ks * spec
+    return base + kd / math.pi * diff + ks * spec
 
 
 @pytest.mark.parametrize("model,param,lmax", [("blinn_phong", 12.0, 4), ("beckmann", 0.35, 6)])

@@ -3,7 +3,7 @@
 #if NM_FILTER == NM_VMF
 #define NM_MAX_AX (NM_MAX_LOBES * NM_BOX_TEXELS + NM_MAX_L0)
 #elif NM_FILTER == NM_SH
-#define NM_MAX_AX 1
+#define NM_MAX_AX (NM_MAX_L0 + 1)   /* level 0's taps, then the environment lobe */
 #else
 #define NM_MAX_AX NM_MAX_L0     /* box at level 0: one lobe per tap */
 #endif
@@ -135,6 +135,13 @@
     int lsh = (int)(sqrt((float)nsh) + 0.5f) - 1;
     float g[4 * NM_MAX_SH4];
     for (int k = 0; k < 4 * k4; ++k) g[k] = 0.0f;
+    /* Level 0 (weight 1 − f) read as vmf reads it, the bilinear normal, one sharp lobe of the
+     * bare material per tap: its NDF is a delta, which l ≤ l* cannot hold (a Blinn–Phong
+     * s = 60 lobe needs l ≈ 15). Eq 12's γ_lm then come from level 1 alone, weighted f. */
+    int at0 = info.w && l0 == info.x;
+    int n0c = min(ntap, NM_MAX_L0);
+    float4 n0s[NM_MAX_L0];
+    for (int k = 0; k < n0c; ++k) n0s[k] = (float4)(0.0f);
 #endif
     if (nbx > 0) {                      /* box footprint above level 0: texels by overlap */
         int4 lv = nm_levels[l0];
@@ -182,9 +189,19 @@
             }
 #endif
 #if NM_FILTER == NM_SH
-            for (int c = 0; c < k4; ++c) {
-                float4 v = nm_trilinear(nm_data, nm_levels, l0, l1, f, 2, k4, c, uvk);
-                g[4 * c] += v.x; g[4 * c + 1] += v.y; g[4 * c + 2] += v.z; g[4 * c + 3] += v.w;
+            if (at0) {
+                int4 lv = nm_levels[l0];
+                n0s[k % NM_MAX_L0] += (float4)(1.0f, nm_bilinear(nm_data, lv.z, lv.y, 1, 0,
+                                                                 uvk).xyz);
+            }
+            if (!at0 || f > 0.0f) {
+                for (int c = 0; c < k4; ++c) {
+                    float4 v = at0 ? f * nm_bilinear(nm_data, nm_levels[l1].w, nm_levels[l1].y,
+                                                     k4, c, uvk)
+                                   : nm_trilinear(nm_data, nm_levels, l0, l1, f, 2, k4, c, uvk);
+                    g[4 * c] += v.x; g[4 * c + 1] += v.y; g[4 * c + 2] += v.z;
+                    g[4 * c + 3] += v.w;
+                }
             }
 #endif
         }
@@ -253,16 +270,33 @@
             ++nlob;
         }
     }
+#elif NM_FILTER == NM_SH
+    /* level 0's taps (lobes 0 … n0l − 1: the bare material at the bilinear normal), then for
+     * the environment's specular the engine_bake lobe about n̄ (weight f, or 1 above level 0) */
+    int n0l = 0;
+    for (int k = 0; at0 && k < n0c; ++k) {
+        float3 nk = to_world(n0s[k].yzw, T, B, N);
+        float ln = length(nk), amp;
+        if (n0s[k].x <= 0.0f || ln <= 0.0f) continue;
+        float3 q = nm_single_lobe(NM_MIP, info.w, 1.0f, s, bnorm, &amp);
+        ax[nlob] = (float4)(nk / ln, amp);
+        lp[nlob] = (float4)((1.0f - f) * (n0s[k].x / (float)ntap), q.x, q.y, q.z);
+        ++nlob;
+    }
+    n0l = nlob;
+    if (!at0 || f > 0.0f) {
+        float amp;
+        float3 q = nm_single_lobe(NM_SH, info.w, rlobe, s, bnorm, &amp);
+        ax[nlob] = (float4)(nbar, amp);
+        lp[nlob] = (float4)(at0 ? f : 1.0f, q.x, q.y, q.z);
+        ++nlob;
+    }
 #else
     {
-        int nsrc = 1;
-#if NM_FILTER != NM_SH
-        if (at0) nsrc = n0c;
-#endif
+        int nsrc = at0 ? n0c : 1;
         for (int k = 0; k < nsrc; ++k) {
             float3 ak = nbar;
             float rk = rlobe, wk = 1.0f, amp;
-#if NM_FILTER != NM_SH
             if (at0) {                                /* box, level 0: the tap's lobe */
                 if (n0s[k].x <= 0.0f) continue;
                 float3 mk = to_world(n0s[k].yzw / n0s[k].x, T, B, N);
@@ -274,7 +308,6 @@
 #endif
                 wk = n0s[k].x / (float)ntap;
             }
-#endif
             float3 q = nm_single_lobe(NM_FILTER, info.w, rk, s, bnorm, &amp);
             ax[nlob] = (float4)(ak, amp);
             lp[nlob] = (float4)(wk, q.x, q.y, q.z);
@@ -292,6 +325,11 @@
             float gw[9];
             float gl[9];
             for (int k = 0; k < 9; ++k) gl[k] = k < nsh ? g[k] : 0.0f;
+            for (int j = 0; j < n0l; ++j) {        /* level 0's taps as deltas */
+                float y9[9];
+                nm_sh_eval(to_local(ax[j].xyz, T, B, N), 2, y9);
+                for (int k = 0; k < 9; ++k) gl[k] += lp[j].x * y9[k];
+            }
             nm_sh_rotate9(gl, env_to_map(T), env_to_map(B), env_to_map(N), gw);  /* cubemap.h */
             const float ah[3] = {3.14159265f, 2.09439510f, 0.785398163f};
             float3 e = (float3)(0.0f);
@@ -346,6 +384,12 @@
                 diff += ah[l] * bsum;
             }
             diff = fmax(diff, 0.0f);
+            for (int j = 0; j < n0l; ++j) {            /* level 0's taps */
+                diff += lp[j].x * fmax(dot(ax[j].xyz, i), 0.0f);
+                if (model != NM_LAMBERT)
+                    spec += lp[j].x * nm_spec(m, ks, model, ax[j].xyz, o, i, lp[j].y, lp[j].z,
+                                              lp[j].w, ax[j].w);
+            }
             if (model != NM_LAMBERT) {
                 float3 ol = nm_lift(o, nbar, 0.01f);
                 float3 h = normalize(o + i);          /* o: lifted in the geometric frame */
@@ -354,12 +398,12 @@
                 float ci = dot(nbar, i);
                 if (ci > 0.0f) {
                     if (model == NM_BLINN) {
-                        spec = ks * (reff * ci);
+                        spec += ks * (reff * ci);
                     } else {
                         float co = dot(nbar, ol);
                         float3 hb = normalize(ol + i);
                         float ch = dot(nbar, hb), oh = dot(ol, hb);
-                        spec = ks * mf_fresnel(m, oh)
+                        spec += ks * mf_fresnel(m, oh)
                                * (nm_mf_g(model, ci, co, ch, oh, s) * reff / co);
                     }
                 }
