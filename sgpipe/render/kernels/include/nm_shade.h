@@ -208,6 +208,25 @@ inline float3 nm_spec(__global const float *m, float3 ks, int model, float3 n, f
 /* The same lobe under the environment (eq 24–26 with SG): D about n as an SG in h, warped to
  * i-space about the reflected view, times the other factors and the cosine at the warped axis,
  * through Γ_L (the `sg` method's accurate pyramid); SSDF visibility from vis at the axis. */
+/* The material's Fresnel averaged over a reflected lobe: o·h = c + uZ (Z ~ N(0, 1), the h-lobe's
+ * offset towards o; u = sin θ_o / √λ_h), counted where n·i > 0 (Z > −t) and weighted by the
+ * Jacobian's o·h, by a 9-point midpoint rule over Z ∈ [max(−t, −4), 4]. At a grazing view the
+ * axis value F(c) is near F(0) = 1 for Schlick's (1 − o·h)⁵ while most of the lobe reflects at
+ * a larger o·h. */
+inline float3 nm_fresnel_lobe(__global const float *m, float c, float u, float t) {
+    float z0 = fmax(-t, -4.0f), dz = (4.0f - z0) / 9.0f;
+    float3 num = (float3)(0.0f);
+    float den = 0.0f;
+    for (int k = 0; k < 9; ++k) {
+        float z = z0 + ((float)k + 0.5f) * dz;
+        float x = clamp(c + u * z, 0.0f, 1.0f);
+        float w = exp(-0.5f * z * z) * x;
+        num += w * mf_fresnel(m, x);
+        den += w;
+    }
+    return den > 0.0f ? num / den : mf_fresnel(m, c);
+}
+
 inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 n, float3 o,
                           float e, float norm, float a, float amp, float3 T, float3 B,
                           float3 N, const Vis *vis,
@@ -264,7 +283,7 @@ inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 
                  + u * 0.39894228f * (exp(-0.5f * t * t) - exp(-0.5f * t2 * t2))
                  + co * erfc(0.70710678f * t2);
         }
-        f = ks * mf_fresnel(m, oh) * (g2 / (co * co));
+        f = ks * nm_fresnel_lobe(m, co, u, t) * (g2 / (co * co));
     }
     w.mu *= f;
     float3 pl = to_local(w.p, T, B, N);
