@@ -9,9 +9,10 @@ texel (midpoint rule), from which the levels ≥ 1 of every pyramid are built (d
 from __future__ import annotations
 
 import numpy as np
+from numba import njit, prange
 
 from sgpipe.normalmap.pyramid import box_down, level_count
-from sgpipe.normalmap.read import decode_normals
+from sgpipe.normalmap.read import Z_FLOOR
 
 #: Sub-samples per texel axis that `normalmap.bilinear_samples` accepts.
 SAMPLES = (1, 2, 4)
@@ -54,8 +55,34 @@ def bilinear_texels(texels: np.ndarray, s: int) -> np.ndarray:
 
 def bilinear_normals(texels: np.ndarray, s: int) -> np.ndarray:
     """Unit normals (n·s, n·s, 3) of the bilinear normal field at the sub-texel centres, from
-    the map's texel values c = (n + 1)/2 (the file's channels, `read.read_normal_texels`)."""
-    return decode_normals(bilinear_texels(np.asarray(texels)[..., :3], s))
+    the map's texel values c = (n + 1)/2 (the file's channels, `read.read_normal_texels`):
+    `read.decode_normals(bilinear_texels(texels, s))`, compiled, with the same operations."""
+    t = np.ascontiguousarray(np.asarray(texels)[..., :3], np.float64)
+    c0, c1, fx = _axis_weights(t.shape[0], s)
+    out = np.empty((len(c0), len(c0), 3))
+    _bilinear_decode(t, c0, c1, fx, Z_FLOOR, out)
+    return out
+
+
+@njit(cache=True, parallel=True)
+def _bilinear_decode(t, i0, i1, f, z_floor, out):
+    """out[r, c] = decode(a + f_r (b − a)) with a, b the rows i0[r], i1[r] interpolated along u
+    (t[row, i0[c]] + f_c (t[row, i1[c]] − t[row, i0[c]])) — bilinear_texels' arithmetic — and
+    decode as read.decode_normals: 2v − 1, n_z ≥ z_floor, divided by its length."""
+    m = out.shape[0]
+    for r in prange(m):
+        ra, rb, fy = i0[r], i1[r], f[r]
+        v = np.empty(3)
+        for c in range(m):
+            ca, cb, fx = i0[c], i1[c], f[c]
+            for k in range(3):
+                a = t[ra, ca, k] + fx * (t[ra, cb, k] - t[ra, ca, k])
+                b = t[rb, ca, k] + fx * (t[rb, cb, k] - t[rb, ca, k])
+                v[k] = 2.0 * (a + fy * (b - a)) - 1.0
+            v[2] = max(v[2], z_floor)
+            nrm = np.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
+            for k in range(3):
+                out[r, c, k] = v[k] / nrm
 
 
 def continuum_pyramid(level0: np.ndarray, fine: np.ndarray, s: int, levels: int | None,
@@ -80,9 +107,19 @@ def continuum_pyramid(level0: np.ndarray, fine: np.ndarray, s: int, levels: int 
     for r in range(0, n // 2, band_rows):
         x = f(fine[r * step:min(n // 2, r + band_rows) * step])
         for _ in range(k + 1):
-            x = box_down(x)
+            x = _box_down(x)
         bands.append(x)
     out.append(np.concatenate(bands, axis=0))
     for _ in range(2, n_lev):
-        out.append(box_down(out[-1]))
+        out.append(_box_down(out[-1]))
+    return out
+
+
+def _box_down(x: np.ndarray) -> np.ndarray:
+    """`pyramid.box_down`, compiled for (h, w, C) float64 maps (the same summation order)."""
+    if x.ndim != 3 or x.dtype != np.float64:
+        return box_down(x)
+    from sgpipe.normalmap._sh_jit import box_down_map
+    out = np.empty((x.shape[0] // 2, x.shape[1] // 2, x.shape[2]))
+    box_down_map(np.ascontiguousarray(x), out)
     return out
