@@ -253,11 +253,10 @@ def targets(table: dict) -> list[dict]:
                                 "met": a - b >= need})
         if 1 in rows:
             ps = {c: p for c, p in ((c, psnr(rows[1], c)) for c in rows[1]) if p is not None}
-            # toksvig reads the length of the filtered normal as roughness, also between two
-            # level-0 texels, where the map is not rough (Toksvig 2005's formulation)
-            for label, keep in (("every method", ps), ("every method but toksvig",
+            # nm_sh above level 0: l ≤ 4 cannot hold the s = 60 lobe (the sphere's rim)
+            for label, keep in (("every method", ps), ("every method but nm_sh",
                                                        {c: p for c, p in ps.items()
-                                                        if c != "toksvig"})):
+                                                        if c != "nm_sh"})):
                 if len(keep) < 2 or (keep is not ps and len(keep) == len(ps)):
                     continue
                 best = max(keep.values())

@@ -147,12 +147,14 @@ def test_engine_bake_blinn_phong_lobe():
     np.testing.assert_allclose(img, ref, rtol=2e-3)
 
 
-def test_engine_bake_filters_the_texels_lengths_as_a_roughness_texture():
+@pytest.mark.parametrize("method", ["engine_bake", "toksvig"])
+def test_single_lobe_r_baked_or_per_fetch(method):
     """engine_bake's r is baked per texel (each texel's own |n̄|) and filtered like a
     roughness texture: between level-1 texels of different directions the trilinear mean of
-    their lengths, not the length of their trilinear mean (Toksvig's on-the-fly r, which the
-    direction change shortens). Pixels between level 0 and 1 and between 1 and 2 (lod 0.6 and
-    1.5) against numpy; and the two differ (the test can tell them apart)."""
+    their lengths. toksvig's is computed per fetch (Toksvig 2005): the length of the trilinear
+    mean, which the direction change shortens. Pixels between level 0 and 1 and between 1 and
+    2 (lod 0.6 and 1.5) against numpy; the other method's r misses by more than 2 % (the test
+    can tell them apart)."""
     normals = _map(7, spread=0.6)
     pyr = _sh_pyramid(normals, 2)
     lengths = [np.linalg.norm(m.astype(np.float64), axis=-1, keepdims=True) for m in pyr.mean]
@@ -163,25 +165,34 @@ def test_engine_bake_filters_the_texels_lengths_as_a_roughness_texture():
     duv = np.stack([np.exp2(lods) / SIDE, np.zeros(n), np.zeros(n), np.exp2(lods) / SIDE], 1)
     views = unit(np.tile([0.1, 0.2, 1.0], (n, 1)) + rng.normal(0, 0.1, (n, 3)))
     img = renderer("blinn_phong", s, pyr, kd=kd, ks=ks, lights=[directional(LIGHT)]
-                   ).shade("engine_bake", flat_frame(views, uv, duv))[:, 0]
-    ref, ref_toksvig_r = [], []
+                   ).shade(method, flat_frame(views, uv, duv))[:, 0]
+
+    def lobe(r):
+        if method == "engine_bake":
+            return eq20_lobe(s, banerjee_kappa(min(r, 1 - 1e-7)))
+        sp = s * r / (r + s * (1 - r))                  # Toksvig's exponent f·s
+        return sp, (sp + 2) / (8 * math.pi)
+
+    want, other = [], []
     for (u, v), lod, o in zip(uv, lods, views):
         mean = _trilinear(pyr.mean, u, v, lod)
         nbar = unit(mean)
-        for r, out in ((_trilinear(lengths, u, v, lod)[0], ref),
-                       (np.linalg.norm(mean), ref_toksvig_r)):
-            sp, norm = eq20_lobe(s, banerjee_kappa(min(r, 1 - 1e-7)))
+        baked, fetched = _trilinear(lengths, u, v, lod)[0], np.linalg.norm(mean)
+        for r, out in (((baked, want), (fetched, other)) if method == "engine_bake"
+                       else ((fetched, want), (baked, other))):
+            sp, norm = lobe(r)
             out.append(kd / math.pi * max(nbar @ LIGHT, 0)
                        + ks * blinn_lobe(nbar, o, LIGHT, sp, norm))
-    np.testing.assert_allclose(img, ref, rtol=3e-3)
-    assert np.max(np.abs(np.array(ref_toksvig_r) / np.array(ref) - 1)) > 0.02
+    np.testing.assert_allclose(img, want, rtol=3e-3)
+    assert np.max(np.abs(np.array(other) / np.array(want) - 1)) > 0.02
 
 
-def test_engine_bake_between_level0_texels_is_the_bare_material():
+def test_single_lobe_methods_between_level0_texels_are_the_bare_material():
     """Box footprint at level 0: every tap reads the baked r = 1 of level 0, so engine_bake
-    shades each tap's bilinear normal with the bare material, exactly as normals_mip does —
-    the interpolated normal's shortening between two texels is not roughness (the reference
-    reads the normalised bilinear normal)."""
+    and toksvig shade each tap's bilinear normal with the bare material, exactly as
+    normals_mip does — the interpolated normal's shortening between two texels is not
+    roughness (the reference reads the normalised bilinear normal; toksvig's per-fetch length
+    would broaden the taps between texels, which the test catches)."""
     normals = _map(9, spread=0.8)
     pyr = _sh_pyramid(normals, 2)
     n, s = 16, 60.0
@@ -197,6 +208,5 @@ def test_engine_bake_between_level0_texels_is_the_bare_material():
         attach_normalmaps(r, NormalMapData.pack([pyr], [s], 1, [BRDF_MODELS["blinn_phong"]],
                                                 footprint="box").with_environment(None, False))
         out[method] = r.shade(method, flat_frame(views, uv, duv))[:, 0]
-    np.testing.assert_allclose(out["engine_bake"], out["normals_mip"], rtol=1e-5, atol=1e-7)
-    # Toksvig takes the shortening for roughness: it differs where taps fall between texels
-    assert np.max(np.abs(out["toksvig"] - out["normals_mip"])) > 0.05 * out["normals_mip"].max()
+    for method in ("engine_bake", "toksvig"):
+        np.testing.assert_allclose(out[method], out["normals_mip"], rtol=1e-5, atol=1e-7)

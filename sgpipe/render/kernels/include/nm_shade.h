@@ -18,12 +18,13 @@
  *           the 1/(n·i)(n·o) factor and the view lift taken at the lobe axis, Fresnel at o·h;
  *           diffuse kd/π · max(0, n̄·i) with n̄ the plain MIP of the normals (linear in the NDF)
  *   normals_mip  the material's BRDF at n̄/|n̄|
- *   toksvig Blinn–Phong exponent f·s, f = |n̄|/(|n̄| + s(1 − |n̄|)); microfacet roughness
- *           α′² = α² + 2(1 − |n̄|)/|n̄| (the same variance, Blinn–Phong s ≈ 2/α²)
+ *   toksvig Blinn–Phong exponent f·s, f = r/(r + s(1 − r)); microfacet roughness
+ *           α′² = α² + 2(1 − r)/r (the same variance, Blinn–Phong s ≈ 2/α²); r = |n̄| of the
+ *           filtered mean, per fetch (Toksvig 2005), but 1 for level 0's box taps (a bilinear
+ *           read between two texels is shorter without the map being rough there)
  *   engine_bake  one lobe about n̄/|n̄| with κ = (3r − r³)/(1 − r²), then eq 20/21
- *           (Filament / Godot: α′ = √(α² + 2/κ)); r is baked: each texel's own |n̄| (the
- *           mean slot's w), filtered like a roughness texture, so that level 0 (r = 1) is
- *           the bare material wherever it is read, between texels included
+ *           (Filament / Godot: α′ = √(α² + 2/κ)); r baked: each texel's own |n̄| (the mean
+ *           slot's w), filtered like the roughness texture an engine stores (level 0: 1)
  *   nm_sh   eq 12: ρ_eff(ω) = Σ_lm ρ̂_l γ_lm Y_lm(ω), ω = ω_h for the specular lobe (the
  *           BRDF's remaining factors and the cosine at n̄, §4.3), ω = ω_i with Lambert's ρ̂_l
  *           (l ≤ 2) for the diffuse term.

@@ -104,7 +104,7 @@
     }
     float3 mean_t = (float3)(0.0f, 0.0f, 1.0f);
     /* the texels' own mean-normal lengths (slot w) filtered as the normals are: what an engine
-     * bakes per texel and samples like a roughness texture (engine_bake, nm_sh's lobe) */
+     * bakes per texel and samples like a roughness texture (toksvig, engine_bake, nm_sh) */
     float rbake = 1.0f;
 #if NM_FILTER == NM_VMF
     float4 lob[NM_MAX_LOBES];
@@ -217,10 +217,14 @@
     float3 mean = to_world(mean_t, T, B, N);
     float rl = length(mean);
     float3 nbar = rl > 0.0f ? mean / rl : N;
-#if NM_FILTER == NM_BAKE || NM_FILTER == NM_SH
-    float rlobe = fmin(rbake, 1.0f);
+    /* r of the single-lobe formulas: engine_bake and nm_sh's environment lobe read the baked
+     * per-texel length, as an engine's stored roughness texture holds it; toksvig the length
+     * of the filtered mean (Toksvig 2005, per fetch: it also counts the spread between the
+     * texels it blends), except at level 0's box taps, which are normalised (r = 1, below) */
+#if NM_FILTER == NM_TOKSVIG
+    float rlobe = rl;
 #else
-    float rlobe = rl;     /* Toksvig: the length of the filtered mean, computed per fetch */
+    float rlobe = fmin(rbake, 1.0f);
 #endif
 
     /* The pixel's specular lobes: axis (world), weight, Blinn–Phong exponent e with its
@@ -303,9 +307,7 @@
                 rk = length(mk);
                 if (rk <= 0.0f) continue;
                 ak = mk / rk;
-#if NM_FILTER == NM_BAKE
-                rk = fmin(n0r[k] / n0s[k].x, 1.0f);
-#endif
+                rk = fmin(n0r[k] / n0s[k].x, 1.0f);    /* level 0's baked length, 1 */
                 wk = n0s[k].x / (float)ntap;
             }
             float3 q = nm_single_lobe(NM_FILTER, info.w, rk, s, bnorm, &amp);
