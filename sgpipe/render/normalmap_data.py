@@ -200,7 +200,7 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
            for p, (model, param) in zip(pyramids, lobes)]
     data = NormalMapData.pack(pyramids, [prm for _, prm in lobes], taps,
                               [BRDF_MODELS[mdl] for mdl, _ in lobes], rho,
-                              footprint=getattr(cfg.render, "normalmap_footprint", "box"))
+                              footprint=cfg.render.normalmap_footprint)
     light_sh = None
     if cfg.envmap is not None:
         from sgpipe.artifacts.envmap import read_light_sh

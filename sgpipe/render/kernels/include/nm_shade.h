@@ -206,9 +206,6 @@ inline float3 nm_spec(__global const float *m, float3 ks, int model, float3 n, f
     return ks * mf_fresnel(m, oh) * (G * D / co);
 }
 
-/* The same lobe under the environment (eq 24–26 with SG): D about n as an SG in h, warped to
- * i-space about the reflected view, times the other factors and the cosine at the warped axis,
- * through Γ_L (the `sg` method's accurate pyramid); SSDF visibility from vis at the axis. */
 /* The material's Fresnel averaged over a reflected lobe: o·h = c + uZ (Z ~ N(0, 1), the h-lobe's
  * offset towards o; u = sin θ_o / √λ_h), counted where n·i > 0 (Z > −t) and weighted by the
  * Jacobian's o·h, by a 9-point midpoint rule over Z ∈ [max(−t, −4), 4]. At a grazing view the
@@ -228,6 +225,9 @@ inline float3 nm_fresnel_lobe(__global const float *m, float c, float u, float t
     return den > 0.0f ? num / den : mf_fresnel(m, c);
 }
 
+/* The same lobe under the environment (eq 24–26 with SG): D about n as an SG in h, warped to
+ * i-space about the reflected view, times the other factors and the cosine at the warped axis,
+ * through Γ_L (the `sg` method's accurate pyramid); SSDF visibility from vis at the axis. */
 inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 n, float3 o,
                           float e, float norm, float a, float amp, float3 T, float3 B,
                           float3 N, const Vis *vis,
