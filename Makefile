@@ -57,11 +57,13 @@ validate: setup $(VALIDATE_STAMP)
 	@bash tools/ensure_llvm.sh
 	$(PY) -m validation --out $(OUT)/validate
 
-## the papers' experiments: Töral19 (docs/RESULTS.md), Han07 and Green06 (docs/results/), sheets
+## the papers' experiments: Töral19 (docs/RESULTS.md), Han07 and Green06 (docs/results/), sheets,
+## and the fidelity corpus (docs/results/fidelity.md)
 figures: setup
 	$(PY) -m sgpipe.experiments.figures --out $(OUT)/figures
 	$(PY) -m sgpipe.experiments.han07 --out $(OUT)/figures/han07
 	$(PY) -m sgpipe.experiments.green06 --out $(OUT)/figures/green06 --results docs/results/green06.md
+	$(PY) -m sgpipe.experiments.fidelity --out $(OUT)/figures/fidelity --results docs/results/fidelity.md
 
 ## regenerate data_samples/ (deterministic)
 samples: $(STAMP)
