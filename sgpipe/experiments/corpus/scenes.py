@@ -28,9 +28,8 @@ FILTERED = ("vmf", "nm_sh", "normals_mip", "toksvig", "engine_bake")
 TRANSPORT_SHAPES = ("sphere", "bowl")
 VISIBILITY = {"trace_resolution": 32, "resolution": 16, "pca_terms": 48,
               "sphere_subdivisions": 3, "report_vertices": 0, "preview_vertices": 0}
-#: the frame's triangles of an analytic sphere are the visibility mesh's (4 subdivisions without
-#: a `visibility:` section): transport must tessellate it the same way
-TRANSPORT = {"report_vertices": 0, "sphere_subdivisions": 4}
+#: transport reads the frame's triangles from the visibility stage: the same tessellation
+TRANSPORT = {"report_vertices": 0, "sphere_subdivisions": VISIBILITY["sphere_subdivisions"]}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -260,7 +259,7 @@ def scenes(seed: int, work: Path, *, size: int = 96, spp: int = 256,
                           "environment_exposure": exposure, "preview_exposure": 0.0,
                           "lights": _light(slot, rng),
                           "reference_area_lights": False}}
-        if vis:
+        if vis or "transport" in methods:
             cfg["visibility"] = dict(VISIBILITY)
         if nmap is not None:
             cfg["normalmap"] = {}
