@@ -48,7 +48,8 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
                             mis: str = "power", background: str | bool = "env",
                             pixel_filter=None, maps=None,
                             area_lights: bool = False, bounces: int = 0,
-                            env_rotation=None) -> ReferenceResult:
+                            env_rotation=None, mapped_backfacing: str = "lift"
+                            ) -> ReferenceResult:
     """Render and return image, standard error, timing and progressive checkpoints.
 
     `pixel_filter`: a `PixelFilter`, its type name or a dict (type, radius, stddev); None is
@@ -57,6 +58,8 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
     `radius` > 0 are spheres / discs of that size (sgpipe.reference.lights), else delta lights.
     `bounces`: indirect bounces per path (0: direct lighting only; shading._shade_paths).
     `env_rotation`: 3×3 world ← map rotation of the environment (EnvSampler.rotated), or None.
+    `mapped_backfacing`: "lift" or "black", where a view lies behind a mapped normal
+    (surface.primary_rows).
     """
     from sgpipe.parallel import map_chunks, on_cluster
     from sgpipe.reference.pixel_filter import PixelFilter
@@ -71,6 +74,8 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
         background = "env" if background else "black"
     if background not in ("env", "black"):
         raise ValueError(f"background must be env or black, got {background!r}")
+    if mapped_backfacing not in ("lift", "black"):
+        raise ValueError(f"mapped_backfacing must be lift or black, got {mapped_backfacing!r}")
     bounces = int(bounces)
     if bounces < 0:
         raise ValueError("bounces must be >= 0")
@@ -95,7 +100,8 @@ def render_reference_result(objects, camera, env, *, materials, lights=(), spp: 
     every = int(progressive_every or 0)
     cks = list(range(every, spp, every)) + [spp] if every > 0 else [spp]
     opts = {"spp": spp, "checkpoints": cks, "strategy": strategy, "mis": mis,
-            "seed": int(seed), "background": background, "bounces": bounces}
+            "seed": int(seed), "background": background, "bounces": bounces,
+            "backfacing": mapped_backfacing}
     shared = {"objects": objects, "env": env_s, "materials": mats,
               "lights": normalize_lights(lights, area_lights), "opts": opts, "camera": camera,
               "maps": maps, "filter": filt}

@@ -238,7 +238,8 @@ def _shade_paths(sh, rows, u, ul, ub, strategy, mis, bounces):
         if go.size == 0 or sh["tracer"] is None:
             break
         org = _offset(rows["pos"][go], rows["ng"][go]) + _TNEAR * dirs[go]
-        nxt = primary_rows(sh["tracer"], _GivenRays(org, dirs[go]), None, None, sh["maps"])
+        nxt = primary_rows(sh["tracer"], _GivenRays(org, dirs[go]), None, None, sh["maps"],
+                           sh["opts"]["backfacing"])
         hit = go[nxt["idx"]]
         if hit.size == 0:
             break
@@ -271,7 +272,8 @@ def shade_tile(task) -> dict:
     n_area = sum(L[3] > 0 for L in sh["lights"])
     centre = None
     if filt.type == "center":  # every sample takes the same ray: trace it once
-        centre = primary_rows(sh["tracer"], sh["camera"], cc + 0.5, rr + 0.5, sh["maps"])
+        centre = primary_rows(sh["tracer"], sh["camera"], cc + 0.5, rr + 0.5, sh["maps"],
+                              opts["backfacing"])
     per_pass = max(1, _ROWS_PER_PASS // max(npx, 1))
     done = 0
     bounds = sorted(set(ck) | {spp})
@@ -281,7 +283,8 @@ def shade_tile(task) -> dict:
         if centre is None:
             xy = subpixel_positions(filt, seed, pid, done, ns)          # (P, ns, 2)
             prim = primary_rows(sh["tracer"], sh["camera"], (cc[:, None] + xy[..., 0]).ravel(),
-                                (rr[:, None] + xy[..., 1]).ravel(), sh["maps"])
+                                (rr[:, None] + xy[..., 1]).ravel(), sh["maps"],
+                                opts["backfacing"])
             src = np.arange(npx * ns)
         else:
             prim, src = centre, np.repeat(np.arange(npx), ns)

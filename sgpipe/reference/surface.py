@@ -110,10 +110,12 @@ def normal_mapped_frame(t, b, n, texel):
             _unit(world(nl)))
 
 
-def primary_rows(tracer, camera, px, py, maps=None) -> dict:
+def primary_rows(tracer, camera, px, py, maps=None, backfacing: str = "lift") -> dict:
     """Trace rays through image-plane positions (px, py) (N,) → per row: `hit`, `dirs`, and for
     the hit rows (index `idx`) the shading inputs `pos`, `t`, `b`, `n` (normal-mapped frame),
-    `ng`, `view`, `obj` and `tex` ((kd scale, ks scale) (M, 3) each, or None)."""
+    `ng`, `view`, `obj` and `tex` ((kd scale, ks scale) (M, 3) each, or None). `backfacing`:
+    where the view lies behind a mapped normal, "lift" shades it at a grazing view as the
+    kernels do (mapped_view); "black" reflects nothing there (Mitsuba 3's `normalmap`)."""
     o, d = camera.rays_at(px, py)
     d64 = np.asarray(d, np.float64)
     if tracer is None:
@@ -134,6 +136,7 @@ def primary_rows(tracer, camera, px, py, maps=None) -> dict:
         uv = np.asarray(gb.uv[idx], np.float64)
         kd = np.ones((len(idx), 3))
         ks = np.ones((len(idx), 3))
+        scaled = any(m.kd_map is not None or m.ks_map is not None for m in maps)
         for k, m in enumerate(maps):
             sel = np.flatnonzero(obj == k)
             if m.empty or sel.size == 0:
@@ -145,9 +148,14 @@ def primary_rows(tracer, camera, px, py, maps=None) -> dict:
             if m.normal_map is not None:
                 texel = jit.tex_bilinear(m.normal_map, uv[sel])
                 t2, b2, n2 = normal_mapped_frame(t[sel], b[sel], n[sel], texel)
+                if backfacing == "black":   # the BRDF's scales zeroed: no light, no bounce
+                    behind = sel[np.einsum("ij,ij->i", view[sel], n2) <= 0.0]
+                    kd[behind] = 0.0
+                    ks[behind] = 0.0
+                    scaled = scaled or behind.size > 0
                 view[sel] = mapped_view(view[sel], t[sel], b[sel], n[sel], t2, b2, n2)
                 t[sel], b[sel], n[sel] = t2, b2, n2
-        if any(m.kd_map is not None or m.ks_map is not None for m in maps):
+        if scaled:
             tex = (kd, ks)
     return {"hit": gb.hit, "dirs": d64, "idx": idx, "pos": pos, "t": t, "b": b, "n": n,
             "ng": ng, "view": view, "obj": obj, "tex": tex}

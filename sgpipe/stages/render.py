@@ -183,7 +183,8 @@ def reference_from_config(cfg, *, objects=None, env=None):
         background="env" if rs.background else "black",
         pixel_filter=to_plain(rs.pixel_filter), maps=object_maps(cfg),
         area_lights=rs.reference_area_lights, bounces=rs.reference_bounces,
-        env_rotation=rs.environment_rotation.matrix())
+        env_rotation=rs.environment_rotation.matrix(),
+        mapped_backfacing=rs.reference_mapped_backfacing)
 
 
 def object_maps(cfg) -> list:

@@ -53,3 +53,41 @@ def test_view_lift_keeps_grazing_views():
     assert np.einsum("ij,ij->i", view, n2)[0] < 0
     np.testing.assert_allclose(np.einsum("ij,ij->i", v2, n2), 0.01, atol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(v2, axis=1), 1.0, atol=1e-12)
+
+
+def test_backfacing_black_zeroes_only_views_behind_the_mapped_normal(tmp_path):
+    """render.reference_mapped_backfacing: v-grooves tilted ±45° along t (+X), seen 20° above the
+    plane from +X: with `black` the pixels whose centre sees a face turned away are 0 (Mitsuba's
+    `normalmap`), every other pixel is the `lift` value to the bit (same sample streams)."""
+    import dataclasses
+    from pathlib import Path
+
+    from sgpipe.experiments.corpus.assets import vgroove_normals, write_normal_map
+    from sgpipe.experiments.corpus.measure import load_scene
+    from sgpipe.stages.render import reference_from_config
+
+    data = Path(__file__).resolve().parents[2] / "data_samples"
+    nmap = write_normal_map(tmp_path / "vg.exr", vgroove_normals(16, 8, 45.0))
+    el = np.radians(20.0)
+    cfg = load_scene({
+        "name": "backfacing", "seed": 3,
+        "scene": {"objects": [{"name": "p", "mesh": str(data / "floor.obj"), "material": "m",
+                               "normal_map": str(nmap), "uv_repeat": [4.0, 4.0]}]},
+        "fit": {"materials": [{"name": "m", "model": "beckmann",
+                               "params": {"alpha": 0.3, "ks": 0.5, "kd": 0.3}}]},
+        "envmap": {"environment": str(data / "white.exr")},
+        "render": {"camera": {"eye": [3.0 * np.cos(el), 3.0 * np.sin(el), 0.0],
+                              "target": [0.0, 0.0, 0.0], "fov_deg": 20.0, "width": 24,
+                              "height": 24},
+                   "methods": ["reference"], "spp": 4, "background": False,
+                   "pixel_filter": {"type": "center"}}})
+    img = {}
+    for mode in ("lift", "black"):
+        rs = dataclasses.replace(cfg.render, reference_mapped_backfacing=mode)
+        img[mode] = reference_from_config(dataclasses.replace(cfg, render=rs)).image[..., :3]
+    lit, black = img["lift"], img["black"]
+    zero = (black == 0).all(axis=-1)
+    same = (black == lit).all(axis=-1)
+    assert (zero | same).all()
+    assert (zero & (lit > 0).all(axis=-1)).sum() > 20      # faces turned away: lift shades them
+    assert (same & (lit > 0).all(axis=-1)).sum() > 20      # faces towards the view: untouched

@@ -131,6 +131,11 @@ class RenderSection:
         "paths continue by BRDF importance sampling through up to N further surfaces, each "
         "adding its direct light (env / BRDF samples with MIS, lights); no Russian roulette. "
         "Mitsuba's `path` integrator with max_depth = N + 2.", 0, ge=0, le=16)
+    reference_mapped_backfacing: Literal["lift", "black"] = doc(
+        "reference: where the view lies behind a normal map's normal (grazing views of tilted "
+        "texels). lift: shaded at a grazing view (elevation asin 0.01) in the mapped frame, as "
+        "every OpenCL method does; black: nothing is reflected there (Mitsuba 3's `normalmap` "
+        "BSDF; docs/CONVENTIONS.md).", "lift")
     supersample: int = doc("Real-time methods (sg, gmm, fis): N → N×N G-buffers at the "
                            "centres of an N×N grid of sub-pixel cells, shaded and averaged "
                            "(a box filter, comparable with the reference's default); 1 = one "
