@@ -11,23 +11,53 @@ from validation import import_mitsuba
 from validation.conventions import (bsdf_dict, emitter_dict, envmap_for_mitsuba,
                                     envmap_to_world, pixel_centres, rfilter_dict, sensor_params,
                                     sphere_to_world)
+from validation.textures import (check_mappable, normalmap_bsdf_dict, textured_bsdf_dict)
 
 
-def _mesh(mi, spec, index, bsdf):
-    """A Mitsuba mesh with sgpipe's own loaded geometry (same file, transform and normals)."""
+def _mesh(mi, spec, g, bsdf):
+    """A Mitsuba mesh with sgpipe's own loaded geometry (same file, transform and normals) and,
+    when the file has them, its UVs × the object's uv_repeat (sgpipe.render.scene.repeated_uvs,
+    what sgpipe's tracer interpolates)."""
     import drjit as dr
-    from sgpipe.io.mesh import load_object
-    g = load_object(spec, index)
+    from sgpipe.render.scene import repeated_uvs
     props = mi.Properties()
     props["bsdf"] = bsdf
     m = mi.Mesh(spec.name, len(g.positions), len(g.faces), props=props,
-                has_vertex_normals=True, has_vertex_texcoords=False)
+                has_vertex_normals=True, has_vertex_texcoords=bool(g.has_uvs))
     p = mi.traverse(m)
     p["vertex_positions"] = dr.ravel(mi.Point3f(*np.asarray(g.positions, np.float32).T))
     p["vertex_normals"] = dr.ravel(mi.Normal3f(*np.asarray(g.normals, np.float32).T))
+    if g.has_uvs:
+        uv = np.asarray(repeated_uvs(g.uvs, spec), np.float32)
+        p["vertex_texcoords"] = dr.ravel(mi.Point2f(*uv.T))
     p["faces"] = dr.ravel(mi.Vector3u(*np.asarray(g.faces, np.uint32).T))
     p.update()
     return m
+
+
+def _bitmaps(mi, node):
+    """The dict with every validation.textures `bitmap` array ("data") made an mi.Bitmap."""
+    if not isinstance(node, dict):
+        return node
+    out = {k: _bitmaps(mi, v) for k, v in node.items()}
+    if node.get("type") == "bitmap" and isinstance(node.get("data"), np.ndarray):
+        out["bitmap"] = mi.Bitmap(np.ascontiguousarray(out.pop("data"), np.float32))
+    return out
+
+
+def _object_bsdf(cfg, spec, brdf, has_uvs: bool) -> dict:
+    """bsdf_dict of the object's material with its kd / ks textures (render.material_textures)
+    and its normal map, as sgpipe's reference reads them (sgpipe.stages.render.object_maps)."""
+    from sgpipe.render.setup import read_texture
+    tex = {t.material: t for t in cfg.render.material_textures}.get(spec.material)
+    kd_map = read_texture(tex.kd_map, "kd_map") if tex is not None and tex.kd_map else None
+    ks_map = read_texture(tex.ks_map, "ks_map") if tex is not None and tex.ks_map else None
+    check_mappable(spec, has_uvs=has_uvs, textured=kd_map is not None or ks_map is not None,
+                   backfacing=cfg.render.reference_mapped_backfacing)
+    d = textured_bsdf_dict(bsdf_dict(brdf), kd_map, ks_map)
+    if spec.normal_map is not None:
+        d = normalmap_bsdf_dict(d, read_texture(spec.normal_map, "normal_map"))
+    return d
 
 
 #: envmap resampling (conventions.envmap_for_mitsuba): 4× in u, 16× in v, so a lamp's edge seen
@@ -80,14 +110,18 @@ def scene_dict(cfg, *, spp: int = 64, env_factor=ENV_FACTOR, centre: bool = Fals
                             "scale": environment_scale(cfg),
                             "to_world": mi.ScalarTransform4f(envmap_to_world(
                                 _environment_rotation(rs)))}
+    from sgpipe.io.mesh import load_object
     mats = {m.name: m for m in cfg.fit.materials}
     for k, spec in enumerate(cfg.scene.objects):
-        bsdf = bsdf_dict(brdf_from_spec(mats[spec.material]))
+        brdf = brdf_from_spec(mats[spec.material])
         if spec.sphere_radius is not None:
+            bsdf = _bitmaps(mi, _object_bsdf(cfg, spec, brdf, False))
             d[f"obj_{k}"] = {"type": "sphere", "bsdf": bsdf, "to_world": mi.ScalarTransform4f(
                 sphere_to_world(spec.translate, spec.sphere_radius * spec.scale))}
         else:
-            d[f"obj_{k}"] = _mesh(mi, spec, k, mi.load_dict(bsdf))
+            g = load_object(spec, k)
+            bsdf = _bitmaps(mi, _object_bsdf(cfg, spec, brdf, bool(g.has_uvs)))
+            d[f"obj_{k}"] = _mesh(mi, spec, g, mi.load_dict(bsdf))
     for k, light in enumerate(rs.lights):
         d[f"light_{k}"] = emitter_dict(light)
     return d

@@ -12,6 +12,8 @@ import numpy as np
 
 SCENES_DIR = Path(__file__).resolve().parent / "scenes"
 MIN_DISPLAY_PSNR_DB = 40.0
+#: a scene below 40 dB still passes within this many dB of the joint noise floor (joint_floor_db)
+NOISE_FLOOR_MARGIN_DB = 2.0
 
 
 def scene_paths(names=None) -> list[Path]:
@@ -61,11 +63,14 @@ class SceneResult:
     mitsuba_s: float
     mean_ratio: float              # Σ luminance sgpipe / Σ luminance Mitsuba − 1, surfaces
     mean_ratio_sigma: float        # its standard error (both renderers' sample noise)
+    joint_floor_db: float = float("inf")   # display PSNR two unbiased renders would reach
     images: dict = field(default_factory=dict, repr=False)   # sgpipe, mitsuba, surface
 
 
 def load_scene_config(path: Path, overrides=()):
     from sgpipe.config.loader import load_config
+    from validation.assets import ensure_for_scene
+    ensure_for_scene(path)             # generated inputs (../generated/…) before validation
     return load_config(path, list(overrides))
 
 
@@ -109,6 +114,30 @@ def mean_ratio(img, mi_a, mi_b, stderr, mask) -> tuple[float, float]:
     return float(ys.sum() / tot - 1.0), se
 
 
+def display_slope(img, exposure: float) -> np.ndarray:
+    """d(8-bit display value)/d(radiance) of tonemap_srgb (unrounded), per pixel and channel:
+    0 where the preview clamps."""
+    k = 2.0 ** exposure
+    y = np.asarray(img, np.float64)[..., :3] * k
+    lin = y <= 0.0031308
+    srgb = 1.055 / 2.4 * np.power(np.maximum(y, 0.0031308), 1.0 / 2.4 - 1.0)
+    return 255.0 * k * np.where((y <= 0) | (y >= 1), 0.0, np.where(lin, 12.92, srgb))
+
+
+def joint_noise_floor(img, stderr, mi_a, mi_b, exposure: float) -> float:
+    """Display PSNR between sgpipe's image and Mitsuba's mean if both were unbiased: display
+    MSE = sgpipe's sample noise (its per-pixel standard error through the preview's slope) +
+    Mitsuba's (its halves' display MSE / 4: the mean of two halves has a quarter of their
+    difference's variance)."""
+    from sgpipe.metrics import display_image
+    da, db = (display_image(x, exposure=exposure).astype(np.float64) for x in (mi_a, mi_b))
+    mse_mi = float(np.mean((da - db) ** 2)) / 4.0
+    mse_sg = 0.0 if stderr is None else float(np.mean(
+        (display_slope(img, exposure) * np.asarray(stderr, np.float64)[..., :3]) ** 2))
+    mse = mse_mi + mse_sg
+    return float("inf") if mse <= 0 else float(10.0 * np.log10(255.0 ** 2 / mse))
+
+
 def run_scene(path: Path, *, mode: str, spp_sgpipe: int | None = None, spp_mitsuba: int = 4096,
               size: int | None = None, env_factor=None, log=print) -> SceneResult:
     """Render one scene config with both renderers and compare (module docstring)."""
@@ -137,15 +166,19 @@ def run_scene(path: Path, *, mode: str, spp_sgpipe: int | None = None, spp_mitsu
     metrics = compare_images(img, mitsuba, exposure=rs.preview_exposure, surface=surface)
     floor = display_psnr(mi_a, mi_b, exposure=rs.preview_exposure)
     floor_s = display_psnr(mi_a, mi_b, exposure=rs.preview_exposure, mask=surface)
-    ratio, ratio_se = mean_ratio(img, mi_a, mi_b, getattr(ref, "stderr", None), surface)
+    stderr = getattr(ref, "stderr", None)
+    ratio, ratio_se = mean_ratio(img, mi_a, mi_b, stderr, surface)
+    joint = joint_noise_floor(img, stderr, mi_a, mi_b, rs.preview_exposure)
     log(f"[validate] {cfg.name}: display PSNR {metrics['display_psnr_db']:.2f} dB "
         f"(surfaces {metrics['surface']['display_psnr_db']:.2f} dB), LDR-FLIP "
-        f"{metrics['flip_ldr']:.4f}, Mitsuba noise floor {floor:.2f} dB, surface mean "
+        f"{metrics['flip_ldr']:.4f}, Mitsuba noise floor {floor:.2f} dB, joint noise floor "
+        f"{joint:.2f} dB, surface mean "
         f"{100 * ratio:+.3f} ± {100 * ratio_se:.3f} %; sgpipe {t_sg:.1f} s, "
         f"Mitsuba {t_mi:.1f} s")
     return SceneResult(name=cfg.name, mode=mode, width=rs.camera.width, height=rs.camera.height,
                        spp_sgpipe=rs.spp, spp_mitsuba=2 * half, metrics=metrics,
                        noise_floor_db=floor, noise_floor_surface_db=floor_s, sgpipe_s=t_sg,
                        mitsuba_s=t_mi, mean_ratio=ratio, mean_ratio_sigma=ratio_se,
+                       joint_floor_db=joint,
                        images={"sgpipe": img, "mitsuba": mitsuba, "surface": surface,
                                "exposure": rs.preview_exposure})
