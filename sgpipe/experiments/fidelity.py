@@ -47,8 +47,18 @@ def _row(scene: dict, r: dict) -> dict:
             "shape": scene["slot"].shape, "reference_spp": ref["spp"],
             "reference_seconds": ref["seconds"],
             "seed_surface_psnr_db": ref["seed_surface_psnr_db"],
+            "clipped": clipped_fraction(ref),
             "methods": {m: {k: float(v[k]) for k in keep} for m, v in r["methods"].items()},
             "errors": r["errors"]}
+
+
+def clipped_fraction(ref: dict) -> float:
+    """Fraction of the reference's surface pixels that the preview clamps (a channel ≥ 1 at the
+    preview exposure): display PSNR cannot see errors there."""
+    import numpy as np
+    img = np.asarray(ref["image"])[..., :3] * 2.0 ** ref["exposure"]
+    mask = np.asarray(ref["surface"], bool)
+    return float((img[mask].max(axis=-1) >= 1.0).mean()) if mask.any() else 0.0
 
 
 def _save_images(folder: Path, r: dict, exposure: float) -> None:
@@ -109,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="slot keys (default: all); --list prints them")
     ap.add_argument("--list", action="store_true", help="print the slot keys and exit")
     ap.add_argument("--size", type=int, default=96)
-    ap.add_argument("--spp", type=int, default=256, help="reference spp per seed (two seeds)")
+    ap.add_argument("--spp", type=int, default=1024, help="reference spp per seed (two seeds)")
     ap.add_argument("--quick", action="store_true", help="48², 64 spp: a smoke run")
     ap.add_argument("--results", type=Path, default=None,
                     help="Markdown report (default <out>/fidelity.md)")

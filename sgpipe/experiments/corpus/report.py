@@ -59,7 +59,8 @@ def markdown(rows: list[dict], meta: dict, misses: list[str]) -> str:
         "PSNR in dB (the 8-bit preview: clamp at the preview exposure, sRGB) over the surface "
         "pixels, corrected for the reference's noise; `*` marks a cell within 3 dB of that "
         "noise, where the value is a lower bound. `n/a`: the method refuses the scene's "
-        "material (its paper has no closed form for it).",
+        "material (its paper has no closed form for it). The last table gives the share of "
+        "surface pixels the preview clamps, where display PSNR sees no error.",
         "",
         "Regenerate: `python -m sgpipe.experiments.fidelity --out out/figures/fidelity "
         f"--seed {seeds} --results docs/results/fidelity.md` (part of `make figures`; "
@@ -96,12 +97,13 @@ def markdown(rows: list[dict], meta: dict, misses: list[str]) -> str:
             "Per scene and method: whole-frame display PSNR (noise-corrected), surface "
             "LDR-ꟻLIP, surface linear relMSE and the frame time (ms, 3×3 supersampled, this "
             "machine).", "",
-            "| scene | reference noise (seed A vs B, surface dB) | method | frame dB | ꟻLIP | "
-            "relMSE | ms |", "|---|---|---|---|---|---|---|"]
+            "| scene | reference noise (seed A vs B, surface dB) / clipped | method | frame dB | "
+            "ꟻLIP | relMSE | ms |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         for k, (m, v) in enumerate(sorted(r["methods"].items(), key=lambda x: ORDER.index(x[0])
                                           if x[0] in ORDER else 99)):
-            head = (f"{_scene(r)} | {r['seed_surface_psnr_db']:.1f}" if k == 0 else " | ")
+            head = (f"{_scene(r)} | {r['seed_surface_psnr_db']:.1f} / "
+                    f"{100 * r['clipped']:.0f} %" if k == 0 else " | ")
             ms_v = "" if not math.isfinite(v["ms"]) else f"{v['ms']:.0f}"
             out.append(f"| {head} | {m} | {v['display_psnr_db']:.1f} | "
                        f"{v['surface_flip_ldr']:.3f} | {v['surface_rel_mse']:.2e} | {ms_v} |")
