@@ -46,7 +46,8 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
                                    lambda_min=e.pyramid_lambda_min,
                                    src_texels_per_sigma=e.pyramid_source_texels_per_sigma,
                                    bright_factor=e.pyramid_bright_factor,
-                                   max_points=e.pyramid_max_points)
+                                   max_points=e.pyramid_max_points,
+                                   bright_clusters=e.pyramid_bright_clusters)
         pyr = build_pyramid(cube, settings)
         run.timings["pyramid_s"] = time.perf_counter() - t
         artifacts.write_pyramid(run, store.pyramid_artifacts(pyr))

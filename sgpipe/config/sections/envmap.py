@@ -38,6 +38,14 @@ class EnvmapSection:
         "Γ_L pyramid: a bright layer of at most this many texels (a sun, a few lamps) is kept "
         "as exact point masses beside the levels (no λ-interpolation error); 0 = always in the "
         "levels.", 256, ge=0, le=4096)
+    pyramid_bright_clusters: bool = doc(
+        "Γ_L pyramid: a bright layer of more texels than `pyramid_max_points` (large lamps) is "
+        "kept as that many point masses, each the energy of a 2^k × 2^k block of texels at its "
+        "energy-weighted direction (k as small as the count allows), instead of going into the "
+        "levels, so that sg and gmm shade them with the exact BRDF (GGX's tails far from a "
+        "lamp's highlight). Blocks are 2^k texels wide: lobes much wider than a block (α ≳ "
+        "0.05) gain, sharper lobes see the blocks as separate points (a near-mirror shows a "
+        "lamp as dots), hence off by default; false: the lamps go into the levels.", False)
     mip_coverage: float = doc("Töral19 eq 7–8: fraction a of the lobe whose solid angle sets "
                               "the MIP level.", 0.9, gt=0.0, lt=1.0)
     dp_scale: float = doc("Dual-paraboloid scale b (Töral19 eq 11; 1.2 as in GPU Gems 3).",

@@ -114,6 +114,26 @@ class Layers:
             self.bright.release_below(self.bright.pick(sigma, s.bright_src_texels_per_sigma))
 
 
+def clustered_points(dirs: np.ndarray, energy: np.ndarray, f, i, j, max_points: int):
+    """The bright texels merged over 2^k × 2^k blocks of their face, k the smallest with at most
+    `max_points` non-empty blocks: per block one point at the energy-weighted mean direction
+    (normalised) carrying the block's summed energy (power exact, first moment kept)."""
+    w = energy.sum(axis=1)
+    k = 0
+    while True:
+        k += 1
+        key = (np.asarray(f, np.int64) << 40) | ((np.asarray(i, np.int64) >> k) << 20) \
+            | (np.asarray(j, np.int64) >> k)
+        blocks, inv = np.unique(key, return_inverse=True)
+        if len(blocks) <= max_points:
+            break
+    d = np.zeros((len(blocks), 3))
+    e = np.zeros((len(blocks), 3))
+    np.add.at(d, inv, w[:, None] * dirs)
+    np.add.at(e, inv, energy)
+    return d / np.linalg.norm(d, axis=1, keepdims=True), e
+
+
 def split_layers(cube: np.ndarray, s: PyramidSettings) -> Layers:
     """The (6, N, N, 3) float64 cubemap's texels as the dim and bright layers' masses."""
     n_fin = cube.shape[1]
@@ -123,12 +143,16 @@ def split_layers(cube: np.ndarray, s: PyramidSettings) -> Layers:
     src0, row_energy = layer_masses(cube, omega, bright, False)
     dim = MomentMip(src0)
     n_bright = int(bright.sum())
-    as_points = 0 < n_bright <= s.max_points
+    as_points = 0 < n_bright <= s.max_points or (n_bright > 0 and s.bright_clusters
+                                                  and s.max_points > 0)
     point_dirs, point_energy = np.zeros((0, 3)), np.zeros((0, 3))
     if as_points:       # a sun / a few lamps: exact at every λ, no λ interpolation error
         fb, ib, jb = np.nonzero(bright)
         point_dirs = _mj.texel_dirs_at(fb, ib, jb, n_fin)
         point_energy = cube[fb, ib, jb] * omega[ib, jb][:, None]
+        if n_bright > s.max_points:     # large lamps: blocks of texels as points
+            point_dirs, point_energy = clustered_points(point_dirs, point_energy, fb, ib, jb,
+                                                        s.max_points)
     brt = None
     if n_bright and not as_points:
         src0, row_bright = layer_masses(cube, omega, bright, True)

@@ -26,6 +26,8 @@ class PyramidSettings:
     tile: int = 4
     max_points: int = 256                # a bright layer of at most this many texels is kept as
                                          # exact point masses instead of pyramid levels
+    bright_clusters: bool = False        # a larger one as at most max_points clusters of
+                                         # texel blocks (layers.clustered_points)
     chain_lambda_min: float = 20.0       # levels with λ >= this (below the direct levels) are
                                          # computed from a sharper level with the exact
                                          # difference kernel (kernels.py) while its fit is
