@@ -1,0 +1,80 @@
+"""Fidelity floors on two fidelity-corpus scenes of the report seed (sgpipe.experiments.corpus),
+through the real stages at 48² against a two-seed reference (2 × 256 spp), surface display
+PSNR corrected for the reference's noise:
+
+* `sphere-lamps-ggx_diffuse` (a GGX + diffuse sphere under a generated map of hard-edged lamps):
+  sg and gmm; gmm with Töral19's single MIP tap per lobe (`render.gmm_taps: 1`) must fall
+  below gmm's floor;
+* `plane-lamps-nm_beckmann-vgrooves4x` (v-grooves minified 4× on a plane under lamps): vmf,
+  the Han07 filtered method; `sg`, which shades the unfiltered map, must fall below vmf's
+  floor.
+
+Each floor sits below the raw (uncorrected) value measured at these settings and at least
+NOISE_MARGIN_DB under the reference's noise floor."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from sgpipe.experiments.corpus.measure import measure
+from sgpipe.experiments.corpus.scenes import scenes
+from sgpipe.experiments.fidelity import REPORT_SEED
+
+pytestmark = [pytest.mark.opencl, pytest.mark.slow]
+
+SIZE, SPP = 48, 256
+#: the corpus scene without its transport precompute (not what these floors guard)
+NO_TRANSPORT = ("transport=null",)
+NOISE_MARGIN_DB = 3.0
+# measured sg 44.9 dB (raw 41.9), gmm 36.0 (raw 35.4), reference noise floor 44.8 dB
+LAMPS_SG_FLOOR_DB = 41.0
+LAMPS_GMM_FLOOR_DB = 34.0
+# measured vmf 41.0 dB (raw 36.8), sg of the unfiltered map 27.0; noise floor 39.0 dB
+VGROOVES_VMF_FLOOR_DB = 35.5
+
+
+def _scene(key: str, tmp: Path) -> dict:
+    return scenes(REPORT_SEED, tmp, size=SIZE, spp=SPP, only=[key])[0]["config"]
+
+
+def _cell(result: dict, method: str) -> dict:
+    assert method in result["methods"], result["errors"]
+    v = result["methods"][method]
+    print(f"{result['name']} {method}: surface {v['surface_display_psnr_db']:.2f} dB (raw "
+          f"{v['raw_surface_display_psnr_db']:.2f}, noise floor {v['surface_floor_db']:.2f})")
+    return v
+
+
+def _holds(result: dict, method: str, floor: float) -> None:
+    v = _cell(result, method)
+    assert v["surface_floor_db"] > floor + NOISE_MARGIN_DB
+    assert v["surface_display_psnr_db"] >= floor
+
+
+@pytest.fixture(scope="module")
+def lamps(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("corpus_lamps")
+    cfg = _scene("sphere-lamps-ggx_diffuse", tmp)
+    return cfg, measure(cfg, ("sg", "gmm"), NO_TRANSPORT, spp=SPP, out=tmp / "run", quiet=True)
+
+
+def test_lamps_sg_and_gmm_floors(lamps):
+    _, r = lamps
+    _holds(r, "sg", LAMPS_SG_FLOOR_DB)
+    _holds(r, "gmm", LAMPS_GMM_FLOOR_DB)
+
+
+def test_lamps_gmm_floor_catches_a_single_mip_tap(lamps, tmp_path):
+    cfg, r = lamps
+    one = measure(cfg, ("gmm",), NO_TRANSPORT + ("render.gmm_taps=1",), spp=SPP,
+                  reference=r["reference"], out=tmp_path, quiet=True)
+    assert _cell(one, "gmm")["surface_display_psnr_db"] < LAMPS_GMM_FLOOR_DB
+
+
+def test_vgrooves_vmf_floor_and_unfiltered_sg_below_it(tmp_path):
+    cfg = _scene("plane-lamps-nm_beckmann-vgrooves4x", tmp_path)
+    r = measure(cfg, ("vmf", "sg"), spp=SPP, out=tmp_path / "run", quiet=True)
+    _holds(r, "vmf", VGROOVES_VMF_FLOOR_DB)
+    assert _cell(r, "sg")["surface_display_psnr_db"] < VGROOVES_VMF_FLOOR_DB
