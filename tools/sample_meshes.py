@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 import teapot_data
-from canonical import cross3, decimals, norm3, normalize3
+from canonical import cross3, norm3, normalize3
 
 # ---------------------------------------------------------------- OBJ writer
 
@@ -21,32 +21,9 @@ from canonical import cross3, decimals, norm3, normalize3
 def write_obj(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, *,
               normals: np.ndarray | None = None, uvs: np.ndarray | None = None,
               header: str = "") -> Path:
-    """Write a triangle mesh with per-vertex normals/UVs sharing the vertex index; values rounded
-    to 6 decimals without negative zeros, fixed '%.6f' formatting and '\\n' line ends make the
-    bytes reproducible on any CPU."""
-    from sgpipe.io import atomic_path
-
-    v = decimals(vertices)
-    f = np.asarray(faces, np.int64) + 1
-    lines = [f"# {line}" for line in header.strip().splitlines()]
-    lines.append(f"# vertices {len(v)} faces {len(f)}")
-    lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in v]
-    if uvs is not None:
-        lines += [f"vt {s:.6f} {t:.6f}" for s, t in decimals(uvs)]
-    if normals is not None:
-        lines += [f"vn {x:.6f} {y:.6f} {z:.6f}" for x, y, z in decimals(normals)]
-    if uvs is not None and normals is not None:
-        lines += [f"f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}" for a, b, c in f]
-    elif normals is not None:
-        lines += [f"f {a}//{a} {b}//{b} {c}//{c}" for a, b, c in f]
-    elif uvs is not None:
-        lines += [f"f {a}/{a} {b}/{b} {c}/{c}" for a, b, c in f]
-    else:
-        lines += [f"f {a} {b} {c}" for a, b, c in f]
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        tmp.write_bytes(("\n".join(lines) + "\n").encode("ascii"))
-    return path
+    """sgpipe.io.mesh.write_obj (reproducible bytes on any CPU)."""
+    from sgpipe.io.mesh import write_obj as _write
+    return _write(path, vertices, faces, normals=normals, uvs=uvs, header=header)
 
 
 # ---------------------------------------------------------------- sphere

@@ -16,8 +16,9 @@ PREFIX = "../generated/"
 
 def _bowl(path: Path) -> None:
     from sgpipe.experiments.corpus import assets
+    from sgpipe.io.mesh import write_obj
     v, f, n = assets.bowl_mesh()
-    assets.write_obj(path, v, f, vn=n)
+    write_obj(path, v, f, normals=n)
 
 
 def _lamps(seed: int):

@@ -258,3 +258,36 @@ def load_scene(scene, *, sphere_subdivisions: int = 4) -> list[MeshGeometry]:
         raise BadInput("the scene has no objects", key="scene.objects")
     return [load_object(o, i, sphere_subdivisions=sphere_subdivisions)
             for i, o in enumerate(scene.objects)]
+
+
+def write_obj(path: str | Path, vertices: np.ndarray, faces: np.ndarray, *,
+              normals: np.ndarray | None = None, uvs: np.ndarray | None = None,
+              header: str = "") -> Path:
+    """Write a triangle mesh with per-vertex normals/UVs sharing the vertex index; values rounded
+    to 6 decimals without negative zeros, fixed '%.6f' formatting and '\\n' line ends make the
+    bytes reproducible on any CPU."""
+    from sgpipe.io.atomic import atomic_path
+
+    def rows(a):                       # rounded, −0.0 made +0.0
+        return np.round(np.asarray(a, np.float64), 6) + 0.0
+    f = np.asarray(faces, np.int64) + 1
+    lines = [f"# {line}" for line in header.strip().splitlines()]
+    lines.append(f"# vertices {len(vertices)} faces {len(f)}")
+    lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in rows(vertices)]
+    if uvs is not None:
+        lines += [f"vt {s:.6f} {t:.6f}" for s, t in rows(uvs)]
+    if normals is not None:
+        lines += [f"vn {x:.6f} {y:.6f} {z:.6f}" for x, y, z in rows(normals)]
+    if uvs is not None and normals is not None:
+        lines += [f"f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}" for a, b, c in f]
+    elif normals is not None:
+        lines += [f"f {a}//{a} {b}//{b} {c}//{c}" for a, b, c in f]
+    elif uvs is not None:
+        lines += [f"f {a}/{a} {b}/{b} {c}/{c}" for a, b, c in f]
+    else:
+        lines += [f"f {a} {b} {c}" for a, b, c in f]
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(("\n".join(lines) + "\n").encode("ascii"))
+    return path

@@ -168,29 +168,6 @@ def mixed_map(rng: np.random.Generator, h: int = ENV_H, w: int = ENV_W) -> np.nd
 
 # -- meshes --------------------------------------------------------------------------------------
 
-def write_obj(path: Path, v: np.ndarray, f: np.ndarray, *, vn=None, vt=None) -> Path:
-    """A triangle OBJ with one vt / vn per v (`f a/a/a`), fixed 6-decimal formatting."""
-    from sgpipe.io.atomic import atomic_path
-
-    def rows(tag, a):
-        a = np.round(np.asarray(a, np.float64), 6) + 0.0      # no negative zeros
-        return [f"{tag} " + " ".join(f"{x:.6f}" for x in r) for r in a]
-    lines = rows("v", v) + (rows("vt", vt) if vt is not None else []) \
-        + (rows("vn", vn) if vn is not None else [])
-    idx = np.asarray(f, np.int64) + 1
-    if vt is not None and vn is not None:
-        lines += [f"f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}" for a, b, c in idx]
-    elif vn is not None:
-        lines += [f"f {a}//{a} {b}//{b} {c}//{c}" for a, b, c in idx]
-    else:
-        lines += [f"f {a} {b} {c}" for a, b, c in idx]
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp:
-        tmp.write_bytes(("\n".join(lines) + "\n").encode("ascii"))
-    return path
-
-
 def _grid_faces(rows: int, cols: int, offset: int, flip: bool) -> np.ndarray:
     """Two triangles per cell of a (rows + 1) × (cols + 1) vertex grid."""
     i, j = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")

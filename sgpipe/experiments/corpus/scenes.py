@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from sgpipe.experiments.corpus import assets
+from sgpipe.io.mesh import write_obj
 
 ROOT = Path(__file__).resolve().parents[3]
 DATA = ROOT / "data_samples"
@@ -167,7 +168,7 @@ def _geometry(slot: Slot, rng, work: Path, size: int) -> tuple[dict, dict, bool]
         path = work / "meshes" / "bowl.obj"
         if not path.is_file():
             v, f, n = assets.bowl_mesh()
-            assets.write_obj(path, v, f, vn=n)
+            write_obj(path, v, f, normals=n)
         return ({"mesh": str(path)}, _orbit(rng, (0.0, 0.45, 0.0), 3.6, 30.0, 60.0, 36.0),
                 True)
     if slot.shape == "nm_sphere":   # sphere.obj: u = φ/2π, v = 1 − θ/π; equator texel = m px
