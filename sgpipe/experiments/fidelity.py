@@ -42,6 +42,7 @@ def _row(scene: dict, r: dict) -> dict:
             "rel_mse", "ms")
     ref = r["reference"]
     return {"key": scene["key"], "seed": scene["config"]["seed"],
+            "exposure": ref["exposure"],
             "material": scene["material"], "methods_asked": scene["methods"],
             "normal_map": scene["slot"].normal_map, "env": scene["slot"].env,
             "shape": scene["slot"].shape, "reference_spp": ref["spp"],
@@ -50,6 +51,30 @@ def _row(scene: dict, r: dict) -> dict:
             "clipped": clipped_fraction(ref),
             "methods": {m: {k: float(v[k]) for k in keep} for m, v in r["methods"].items()},
             "errors": r["errors"]}
+
+
+#: samples per pixel of the quick reference that sets a scene's preview exposure
+EXPOSURE_SPP = 16
+#: ... and the percentile of its surface pixels (brightest channel) that the preview puts at 1
+PERCENTILE = 90.0
+
+
+def preview_exposure(config: dict) -> float:
+    """The scene's preview exposure in half stops, never above 0: the darkening that puts the
+    PERCENTILE-th percentile of a quick reference's surface pixels (brightest channel) at 1, so
+    that a surface lit brighter than white is measured instead of clamped."""
+    import dataclasses
+
+    import numpy as np
+
+    from sgpipe.experiments.corpus.measure import load_scene, surface_of
+    from sgpipe.stages.render import reference_from_config
+    cfg = load_scene(config)
+    cfg = dataclasses.replace(cfg, render=dataclasses.replace(cfg.render, spp=EXPOSURE_SPP))
+    img = np.asarray(reference_from_config(cfg).image)[..., :3].max(axis=-1)
+    mask = surface_of(cfg)
+    level = float(np.percentile(img[mask], PERCENTILE)) if mask.any() else 0.0
+    return 0.0 if level <= 1.0 else -math.ceil(2.0 * math.log2(level)) / 2.0
 
 
 def clipped_fraction(ref: dict) -> float:
@@ -81,6 +106,7 @@ def run_corpus(out: Path, seeds, *, size: int, spp: int, only=None, log=print) -
     for k, (seed, s) in enumerate(todo):
         t = time.perf_counter()
         work = out / "work" / f"s{seed}" / s["key"]
+        s["config"]["render"]["preview_exposure"] = preview_exposure(s["config"])
         r = measure(s["config"], s["methods"], spp=spp, out=work, quiet=True)
         _save_images(out / "scenes" / f"s{seed}" / s["key"], r, r["reference"]["exposure"])
         rows.append(_row(s, r))

@@ -16,7 +16,7 @@ def _v(db: float) -> dict:
 
 
 def _row(key, methods, errors=None, normal_map=None) -> dict:
-    return {"key": key, "seed": 7, "normal_map": normal_map, "clipped": 0.0,
+    return {"key": key, "seed": 7, "normal_map": normal_map, "clipped": 0.0, "exposure": 0.0,
             "seed_surface_psnr_db": 40.0,
             "material": {"model": "ggx", "params": {"alpha": 0.1}},
             "methods": {m: _v(db) for m, db in methods.items()}, "errors": errors or {}}

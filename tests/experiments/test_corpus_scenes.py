@@ -147,3 +147,21 @@ def test_vgroove_normals_have_the_drawn_slope_and_period():
     assert (n[:, :4, 0] < 0).all() and (n[:, 4:8, 0] > 0).all()
     np.testing.assert_array_equal(n[:, :8], n[:, 8:16])
     assert (n[..., 1] == 0).all()
+
+
+def test_preview_exposure_darkens_only_scenes_lit_past_white(tmp_path):
+    """The v-groove plane at 64× under the sky and its sun is lit past white nearly everywhere
+    at exposure 0: its exposure darkens it until most surface pixels are below 1; the lamp-lit
+    sphere is left at 0."""
+    from sgpipe.experiments.fidelity import PERCENTILE, preview_exposure
+    from sgpipe.experiments.corpus.measure import load_scene, render_reference
+    bright, dim = (scenes(7, tmp_path, size=24, only=[k], env_height=64)[0]["config"]
+                   for k in ("plane-sky-nm_beckmann-vgrooves64x-directional",
+                             "sphere-lamps-ggx_diffuse"))
+    assert preview_exposure(dim) == 0.0
+    e = preview_exposure(bright)
+    assert e <= -1.0 and e * 2 == int(e * 2)
+    ref = render_reference(load_scene(bright), 16)
+    peak = ref["image"][..., :3].max(axis=-1)[ref["surface"]]
+    assert (peak >= 1.0).mean() > 0.9                      # clamped at exposure 0
+    assert (peak * 2.0 ** e >= 1.0).mean() <= 1.0 - PERCENTILE / 100.0 + 0.05

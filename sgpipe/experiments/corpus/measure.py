@@ -38,19 +38,25 @@ def load_scene(scene, overrides=()):
     return build(Config, raw, (), Context(file=ROOT / "<dict>", lines={}))
 
 
-def render_reference(cfg, spp: int = REFERENCE_SPP) -> dict:
-    """The reference (box pixel filter unless the config says otherwise) at `spp` with seeds
-    cfg.seed and cfg.seed + 1: their mean is the truth; seed A vs seed B measures its noise."""
-    from sgpipe.metrics import display_psnr, surface_mask
+def surface_of(cfg) -> np.ndarray:
+    """The camera's surface pixels (sgpipe.metrics.surface_mask of the pixel-centre hits)."""
+    from sgpipe.metrics import surface_mask
     from sgpipe.render.scene import load_trace_objects
     from sgpipe.scene.camera import Camera
     from sgpipe.scene.gbuffer import Tracer
+    cam = Camera.from_spec(cfg.render.camera)
+    return surface_mask(Tracer(load_trace_objects(cfg)).trace(*cam.rays()).object_id)
+
+
+def render_reference(cfg, spp: int = REFERENCE_SPP) -> dict:
+    """The reference (box pixel filter unless the config says otherwise) at `spp` with seeds
+    cfg.seed and cfg.seed + 1: their mean is the truth; seed A vs seed B measures its noise."""
+    from sgpipe.metrics import display_psnr
     from sgpipe.stages.render import reference_from_config
     rs = dataclasses.replace(cfg.render, spp=spp)
     runs = [reference_from_config(dataclasses.replace(cfg, render=rs, seed=cfg.seed + k))
             for k in (0, 1)]
-    cam = Camera.from_spec(cfg.render.camera)
-    surface = surface_mask(Tracer(load_trace_objects(cfg)).trace(*cam.rays()).object_id)
+    surface = surface_of(cfg)
     a, b = (r.image.astype(np.float64) for r in runs)
     exp = cfg.render.preview_exposure
     return {"image": 0.5 * (a + b), "seeds": (a, b), "spp": 2 * spp, "surface": surface,

@@ -58,9 +58,11 @@ def markdown(rows: list[dict], meta: dict, misses: list[str]) -> str:
         f"box-filtered at 2 × {meta['spp']} spp (two seeds, averaged). Numbers are display "
         "PSNR in dB (the 8-bit preview: clamp at the preview exposure, sRGB) over the surface "
         "pixels, corrected for the reference's noise; `*` marks a cell within 3 dB of that "
-        "noise, where the value is a lower bound. `n/a`: the method refuses the scene's "
-        "material (its paper has no closed form for it). The last table gives the share of "
-        "surface pixels the preview clamps, where display PSNR sees no error.",
+        "noise, where the value is a lower bound. Each scene's preview exposure (≤ 0, in half "
+        "stops) puts the 90th percentile of a 16-spp reference's surface pixels at 1. `n/a`: "
+        "the method refuses the scene's material (its paper has no closed form for it). The "
+        "last table gives the exposure and the share of surface pixels the preview still "
+        "clamps, where display PSNR sees no error.",
         "",
         "Regenerate: `python -m sgpipe.experiments.fidelity --out out/figures/fidelity "
         f"--seed {seeds} --results docs/results/fidelity.md` (part of `make figures`; "
@@ -97,12 +99,12 @@ def markdown(rows: list[dict], meta: dict, misses: list[str]) -> str:
             "Per scene and method: whole-frame display PSNR (noise-corrected), surface "
             "LDR-ꟻLIP, surface linear relMSE and the frame time (ms, 3×3 supersampled, this "
             "machine).", "",
-            "| scene | reference noise (seed A vs B, surface dB) / clipped | method | frame dB | "
-            "ꟻLIP | relMSE | ms |", "|---|---|---|---|---|---|---|"]
+            "| scene | preview exposure / reference noise (seed A vs B, surface dB) / clipped | "
+            "method | frame dB | ꟻLIP | relMSE | ms |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         for k, (m, v) in enumerate(sorted(r["methods"].items(), key=lambda x: ORDER.index(x[0])
                                           if x[0] in ORDER else 99)):
-            head = (f"{_scene(r)} | {r['seed_surface_psnr_db']:.1f} / "
+            head = (f"{_scene(r)} | {r['exposure']:+g} / {r['seed_surface_psnr_db']:.1f} / "
                     f"{100 * r['clipped']:.0f} %" if k == 0 else " | ")
             ms_v = "" if not math.isfinite(v["ms"]) else f"{v['ms']:.0f}"
             out.append(f"| {head} | {m} | {v['display_psnr_db']:.1f} | "
