@@ -44,7 +44,8 @@ def _unit(v) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def _elev_dir(elevation_deg: float, phi_deg: float) -> np.ndarray:
+def elevation_dir(elevation_deg: float, phi_deg: float) -> np.ndarray:
+    """The direction at `elevation_deg` above the horizon and azimuth φ = `phi_deg`."""
     return _dir(np.radians(90.0 - elevation_deg), np.radians(phi_deg))
 
 
@@ -68,7 +69,7 @@ def draw_lamps(rng: np.random.Generator, count: int) -> list[dict]:
 
 def lamp_mask(lamp: dict, d: np.ndarray) -> np.ndarray:
     """1 where d sees the planar rectangle (gnomonic: |d·e1| ≤ a d·c, |d·e2| ≤ b d·c), else 0."""
-    c = _elev_dir(lamp["elevation_deg"], lamp["phi_deg"])
+    c = elevation_dir(lamp["elevation_deg"], lamp["phi_deg"])
     up = np.array([0.0, 1.0, 0.0]) if abs(c[1]) < 0.99 else np.array([1.0, 0.0, 0.0])
     e1 = _unit(np.cross(up, c))
     e2 = np.cross(c, e1)
@@ -121,7 +122,7 @@ def _sky(sun: dict, d: np.ndarray) -> np.ndarray:
     """Zenith → horizon blend ((1 − y)⁴), a glow towards the sun, a darker ground."""
     y = d[..., 1:2]
     zen, hor, gnd = (np.asarray(sun[k]) for k in ("zenith", "horizon", "ground"))
-    s = _elev_dir(sun["elevation_deg"], sun["phi_deg"])
+    s = elevation_dir(sun["elevation_deg"], sun["phi_deg"])
     glow = (0.5 * (1.0 + d @ s))[..., None] ** 8
     sky = (zen + (hor - zen) * (1.0 - np.clip(y, 0.0, 1.0)) ** 4) * (1.0 + 2.0 * glow)
     return np.where(y >= 0.0, sky, gnd * (1.0 + 0.3 * np.clip(y, -1.0, 0.0)))
@@ -131,7 +132,7 @@ def sky_sun_map(sun: dict, h: int = ENV_H, w: int = ENV_W) -> np.ndarray:
     """Sky gradient plus a sun disc of radiance E / (π sin² r) (E = its irradiance), the disc's
     texel coverage from 48 × 48 strata per texel near it."""
     sky = texel_means(lambda d: _sky(sun, d), h, w, 4)
-    s = _elev_dir(sun["elevation_deg"], sun["phi_deg"])
+    s = elevation_dir(sun["elevation_deg"], sun["phi_deg"])
     r = math.radians(sun["radius_deg"])
     radiance = sun["irradiance"] / (math.pi * math.sin(r) ** 2) * np.array([1.0, 0.93, 0.84])
     theta_s = math.radians(90.0 - sun["elevation_deg"])
@@ -146,7 +147,7 @@ def mixed_map(rng: np.random.Generator, h: int = ENV_H, w: int = ENV_W) -> np.nd
     """One map per seed: a sky (no sun disc), 3–6 soft SG blobs (λ 20–400) and 1–2 small
     hard-edged lamps."""
     sky_params = draw_sun(rng)
-    blobs = [(_elev_dir(rng.uniform(-30.0, 85.0), rng.uniform(0.0, 360.0)),
+    blobs = [(elevation_dir(rng.uniform(-30.0, 85.0), rng.uniform(0.0, 360.0)),
               float(10.0 ** rng.uniform(math.log10(20.0), math.log10(400.0))),
               rng.uniform(0.5, 6.0, 3)) for _ in range(int(rng.integers(3, 7)))]
     lamps = draw_lamps(rng, int(rng.integers(1, 3)))

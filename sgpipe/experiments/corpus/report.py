@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+from sgpipe.experiments.corpus.measure import noisy
+
 #: column order of the matrix
 ORDER = ("sg", "gmm", "fis", "transport", "vmf", "nm_sh", "normals_mip", "toksvig",
          "engine_bake")
@@ -33,7 +35,7 @@ def _cell(r: dict, m: str) -> str:
         if e is None:
             return ""
         return "n/a" if e.startswith("BadInput") else "**failed**"
-    star = "*" if v["surface_floor_db"] - v["raw_surface_display_psnr_db"] < 3.0 else ""
+    star = "*" if noisy(v) else ""
     return f"{v['surface_display_psnr_db']:.1f}{star}"
 
 

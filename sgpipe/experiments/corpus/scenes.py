@@ -220,10 +220,10 @@ def _light(slot: Slot, rng) -> list[dict]:
     if slot.light is None:
         return []
     if slot.light == "directional":
-        d = assets._elev_dir(rng.uniform(25.0, 75.0), rng.uniform(0.0, 360.0))
+        d = assets.elevation_dir(rng.uniform(25.0, 75.0), rng.uniform(0.0, 360.0))
         return [{"type": "directional", "direction": [round(float(x), 5) for x in d],
                  "intensity": [round(float(rng.uniform(0.4, 1.2)), 4)] * 3, "radius": 0.0}]
-    p = 4.0 * assets._elev_dir(rng.uniform(25.0, 70.0), rng.uniform(0.0, 360.0))
+    p = 4.0 * assets.elevation_dir(rng.uniform(25.0, 70.0), rng.uniform(0.0, 360.0))
     return [{"type": "point", "position": [round(float(x), 4) for x in p],
              "intensity": [round(float(rng.uniform(4.0, 12.0)), 3)] * 3, "radius": 0.0}]
 
