@@ -22,7 +22,7 @@ import numpy as np
 
 from sgpipe.brdf import make_brdf
 from sgpipe.transport.fit import (FitOptions, VertexFit, VertexProblem, fit_vertex,
-                                  init_from_neighbour, init_params)
+                                  init_from_neighbour, init_params, negligible_transport)
 from sgpipe.transport.sampling import (PathScene, light_cube, vertex_indirect_transport,
                                        vertex_transport, vertex_visibility)
 from sgpipe.transport.sh_transfer import interreflected_transfer, texel_basis, transfer_vector
@@ -149,9 +149,10 @@ def run_chunk(task: TransportTask) -> TransportResult:
         up = cube.dirs @ nrm > 0
         res.visible[i] = vis[up].mean() if up.any() else 0.0
         t1 = time.perf_counter()
-        if not T.any():
-            # no glossy transport at all (a diffuse material, a fully shadowed vertex): zero
-            # weights, nothing stored; not a flood-fill start for its neighbours
+        if negligible_transport(T[active]):
+            # no glossy transport at all (a diffuse material, a fully shadowed vertex, only a
+            # sharp lobe's far tail): zero weights, nothing stored; not a flood-fill start for
+            # its neighbours
             res.mu[i] = views[:, None, :]
             res.sigma[i] = task.opts.sigma_max
             res.fit_s += time.perf_counter() - t1

@@ -63,9 +63,12 @@ class VertexProblem:
         self.views, _, self.nb, self.cnt = view_set()
         # per-view normalisation E_v (floored at 1 % of the mean, so views that receive almost
         # nothing still pull their weights towards zero without amplifying round-off)
+        # a vertex whose transport float32 storage cannot hold is fitted as none (its energy
+        # would underflow and 1/E_v overflow)
+        self.negligible = negligible_transport(self.T[self.active])
         energy = np.einsum("vmc,m->v", self.T ** 2, self.omega)
         n_act = max(int(self.active.sum()), 1)
-        self.energy = float(energy[self.active].sum() / n_act)
+        self.energy = 0.0 if self.negligible else float(energy[self.active].sum() / n_act)
         floor = 0.01 * self.energy if self.energy > 0 else 1.0
         self.av = opts.alpha / np.maximum(energy, floor)
         k = opts.gaussians
@@ -90,9 +93,18 @@ class VertexProblem:
         return Fd + Fc + Fs, Fd, H, g, tb
 
 
+def negligible_transport(T) -> bool:
+    """True where no texel of T reaches float32's smallest normal number: nothing the compact
+    artifact stores, and below the range where eq 6's per-view normalisation is finite."""
+    return not (np.abs(T) >= np.finfo(np.float32).tiny).any()
+
+
 def gaussian(dirs, mu, sigma):
     """G(ω; μ, σ) = exp((ω·μ − 1)/σ²) (Green06 eq 4 with peak 1)."""
-    return np.exp((np.asarray(dirs) @ np.asarray(mu) - 1.0) / np.asarray(sigma) ** 2)
+    # ω·μ ≤ 1 for unit vectors; the clamp keeps a rounding excess (or a caller's non-unit μ)
+    # from overflowing exp
+    return np.exp(np.minimum(np.asarray(dirs) @ np.asarray(mu) - 1.0, 0.0)
+                  / np.asarray(sigma) ** 2)
 
 
 def solve_weights(T, dirs, omega, mu, sigma):
@@ -118,12 +130,19 @@ def init_params(prob: VertexProblem):
         if not prob.active[v]:
             continue
         lum = prob.T[v].mean(-1) * prob.omega
-        tot = lum.sum()
-        if tot <= 0:
+        peak = lum.max()
+        if not peak > 0:
             continue
+        # scaled to peak 1 first: a view lit only by a sharp lobe's far tail has texels near
+        # 1e-170, whose mean vector's squared norm underflows to 0
+        lum = lum / peak
+        tot = lum.sum()
         m = lum @ prob.dirs
-        r = min(np.linalg.norm(m) / tot, 0.999)
-        mu[v, 0] = m / max(np.linalg.norm(m), 1e-300)
+        norm_m = np.linalg.norm(m)
+        if not norm_m > 0:
+            continue
+        r = min(norm_m / tot, 0.999)
+        mu[v, 0] = m / norm_m
         kappa = max(r * (3 - r * r) / (1 - r * r), 1e-3)
         sig[v, :] = np.clip(1.0 / np.sqrt(kappa), prob.opts.sigma_min, prob.opts.sigma_max)
         for kk in range(1, k):
@@ -174,8 +193,9 @@ def fit_vertex(prob: VertexProblem, start=None) -> VertexFit:
     mu, s, w = start if start is not None else init_params(prob)
     mu, s = mu.copy(), s.copy()
     if prob.energy == 0.0:
-        # no glossy transport in any view (a diffuse material, a fully occluded vertex): all
-        # weights are zero and nothing of this vertex is stored or rendered
+        # no glossy transport in any view (a diffuse material, a fully occluded vertex, or
+        # only a sharp lobe's far tail): all weights are zero and nothing of this vertex is
+        # stored or rendered
         return VertexFit(mu, np.exp(s), np.zeros_like(w), 0.0, 0.0, 0)
     w = np.where(prob.active[:, None, None], np.maximum(w, 0.0), 0.0)
     if o.independent_start:
@@ -222,5 +242,5 @@ def relative_error(prob: VertexProblem, mu, s, w) -> float:
     return float(np.sqrt(num / den)) if den > 0 else 0.0
 
 
-__all__ = ["FitOptions", "VertexFit", "VertexProblem", "gaussian", "solve_weights",
-           "init_params", "init_from_neighbour", "fit_vertex", "relative_error"]
+__all__ = ["FitOptions", "VertexFit", "VertexProblem", "negligible_transport", "gaussian",
+           "solve_weights", "init_params", "init_from_neighbour", "fit_vertex", "relative_error"]

@@ -145,3 +145,37 @@ def test_bad_inputs_name_file_and_key_and_write_nothing(tmp_path):
     assert "transport.vertex_limit" in lines[-1] and "floor.obj" in lines[-1]
     assert not any("Traceback" in x for x in lines)
     assert not out.exists()
+
+
+def test_two_glossy_objects_on_a_glossy_floor(tmp_path):
+    """Two sharp Beckmann balls on a sharp Beckmann floor: views whose transport is only a
+    lobe's far tail (texels near 1e-170) once crashed the fit (exp overflow, then NNLS on
+    infinities). Every weight is finite and every object with light on it stores Gaussians."""
+    write_floor(tmp_path / "floor.obj", 4)
+    p = tmp_path / "c.yaml"
+    p.write_text(textwrap.dedent("""
+        name: glossy
+        seed: 1
+        workers: 1
+        scene:
+          objects:
+            - {name: a, sphere_radius: 0.5, translate: [-0.55, 0.5, 0], material: sharp}
+            - {name: b, sphere_radius: 0.5, translate: [0.55, 0.5, 0], material: sharp}
+            - {name: floor, mesh: floor.obj, material: floor}
+        fit:
+          materials:
+            - {name: sharp, model: beckmann, params: {alpha: 0.1, kd: 0.1, ks: 0.5}}
+            - {name: floor, model: beckmann, params: {alpha: 0.1, kd: 0.1, ks: 0.7}}
+        transport:
+          cube_resolution: 8
+          sphere_subdivisions: 1
+          chunk_vertices: 16
+          report_vertices: 8
+          max_iterations: 10
+        """))
+    with np.errstate(over="raise", invalid="raise"):
+        stage.run(load_config(p), tmp_path / "o")
+    for obj in ("a", "b", "floor"):
+        mu, sigma, w, stored = compact.read_gaussians(tmp_path / "o" / "transport", obj)
+        assert np.isfinite(mu).all() and np.isfinite(sigma).all() and np.isfinite(w).all()
+        assert stored.any(), obj
