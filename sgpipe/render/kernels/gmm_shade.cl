@@ -5,7 +5,8 @@
  * of the box MIP chain (eq 6–10, cube distortion; gmm_lobe_integral):
  *   L_o ≈ Σ_k α_k · L̄(μ_k, κ_k) [· f̂_h(θ_d(μ_k), κ_k) with baseline shadows].
  * With render.gmm_points the environment's bright point set (sun, lamps) is summed exactly,
- * Σ_p E_p vMF(p; μ_k, κ_k), and gmm_mip holds the map without it (else gmm_mip = the whole map).
+ * Σ_p E_p vMF(p; μ_k, κ_k) [· f̂_h(θ_d(p), ∞): each point shadowed at its own direction], and
+ * gmm_mip holds the map without it (else gmm_mip = the whole map).
  * Diffuse not inside the lobes (includes_diffuse = 0), and purely diffuse materials, use the SG
  * light fit (Wang09 eq 39); local lights use the mixture itself: ρ cos ≈ Σ α vMF(l) times the irradiance.
  * Defines: NV, FH_*, MAX_GMM_LOBES; optional GMM_TAPS, GMM_TAP_C, GMM_ROTATE, GMM_VIEW_BLEND. */
@@ -39,6 +40,11 @@
 #ifndef GMM_VIEW_BLEND
 #define GMM_VIEW_BLEND 0
 #endif
+/* With baseline shadows each point of the set (a sun, lamp texels) is shadowed at its own
+ * direction, decoded once per pixel for at most GMM_VIS_POINTS points (the point set's default
+ * size), as sg's exact points are (the same sharpness for the SSDF horizon). */
+#define GMM_VIS_POINTS 256
+#define GMM_POINT_LAMBDA 2e4f
 
 /* cube_mip's trilinear fetch between levels l0 and l1 = l0 + 1 (weight f), the face
  * coordinates computed once (the bordered per-level addressing of cube_bilinear). */
@@ -102,6 +108,20 @@ inline float3 gmm_points_integral(__global const float4 *pts, int n, float3 a, f
     return vmf_to_sg_mu(kappa) * gamma_points(pts, n, a, kappa);
 }
 
+/* The same sum with each point k shadowed by its own visibility pvis[k] (a delta light's
+ * shadow is the SSDF at its direction; the lobe's f̂_h would let a rim-hidden sun through
+ * wherever the lobe's axis clears the rim). */
+inline float3 gmm_points_integral_vis(__global const float4 *pts, int n, float3 a, float kappa,
+                                      const float *pvis) {
+    float3 acc = (float3)(0.0f);
+    for (int k = 0; k < n; ++k) {
+        if (pvis[k] <= 0.0f) continue;
+        float3 d = pts[2 * k].xyz - a;       /* c·a − 1 = −½|c − a|² (no cancellation) */
+        acc += pvis[k] * pts[2 * k + 1].xyz * exp(-0.5f * kappa * dot(d, d));
+    }
+    return vmf_to_sg_mu(kappa) * acc;
+}
+
 /* Carry lobe (axis, κ) fitted at view og to view op through its half vector h = (a + og)/‖·‖
  * held fixed (the NDF is what stays put): a' = 2(op·h)h − op, and κ scaled by the reflection
  * Jacobian dω_i = 4(o·h) dω_h: κ' = κ (og·h)/(op·h). */
@@ -151,6 +171,14 @@ __kernel void gmm_shade(GMM_SHADE_ARGS)
      * MIP lookup can resolve: it takes the irradiance form (SG light fit) like the diffuse part
      * of every other material. */
     if (with_diffuse_lobes && (int)m[MAT_NLOBES] == 0) { base = -1; with_diffuse_lobes = 0; }
+    /* The point set's visibility, once per pixel for every lobe (the first GMM_VIS_POINTS
+     * points; any further ones take their lobe's f̂_h as the MIP chain does). */
+    float pvis[GMM_VIS_POINTS];
+    int n_pv = (base >= 0 && !(flags & FLAG_NO_ENV_SPECULAR)
+                && !(flags & FLAG_NO_VISIBILITY)) ? min(n_gmm_pts, GMM_VIS_POINTS) : 0;
+    for (int k = 0; k < n_pv; ++k)
+        pvis[k] = fh_hat(vis_theta(&vis, to_local(pyr_pts[2 * k].xyz, T, B, N)),
+                         GMM_POINT_LAMBDA);
     if (base >= 0) {
         int nt = (int)m[MAT_GMM_NT], np = (int)m[MAT_GMM_NP];
         int K = min((int)m[MAT_GMM_K], MAX_GMM_LOBES);
@@ -206,10 +234,12 @@ __kernel void gmm_shade(GMM_SHADE_ARGS)
                 float vis_f = (flags & FLAG_NO_VISIBILITY) ? 1.0f
                                                           : fh_hat(vis_theta(&vis, ag), kappa);
                 if (!(flags & FLAG_NO_ENV_SPECULAR))
-                    col += alpha * scale * vis_f * env_scale
-                           * (gmm_lobe_integral(gmm_mip, mip_off, mip_res, mip_n, aw, kappa,
-                                                coverage)
-                              + gmm_points_integral(pyr_pts, n_gmm_pts, aw, kappa));
+                    col += alpha * scale * env_scale
+                           * (vis_f * (gmm_lobe_integral(gmm_mip, mip_off, mip_res, mip_n, aw,
+                                                         kappa, coverage)
+                                       + gmm_points_integral(pyr_pts + 2 * n_pv,
+                                                             n_gmm_pts - n_pv, aw, kappa))
+                              + gmm_points_integral_vis(pyr_pts, n_pv, aw, kappa, pvis));
                 for (int l = 0; l < n_lights; ++l) {
                     SG Lw = light_sg(lights[2 * l], lights[2 * l + 1], x);
                     float3 lg = to_local(Lw.p, T, B, N);
