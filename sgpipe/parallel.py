@@ -9,7 +9,9 @@ are the same bytes. This is the only module that imports Dask (`distributed`, la
 Interruption: the parent owns the decision. Workers ignore SIGINT (a terminal's Ctrl-C reaches
 the whole process group), and when anything interrupts the parent (a signal turned into an
 exception, a failed chunk) the pending chunks are cancelled and the workers killed before the
-exception goes on, so the caller's cleanup runs at once instead of after the queued work.
+exception goes on, so the caller's cleanup runs at once instead of after the queued work. A
+parent killed outright (SIGKILL, no handler) takes its workers with it: each asks the kernel for
+SIGKILL when its parent dies (Linux PR_SET_PDEATHSIG).
 """
 
 from __future__ import annotations
@@ -77,8 +79,31 @@ class _WorkerContext(SpawnContext):
     Process = _WorkerProcess
 
 
-def _worker_init() -> None:
+_PR_SET_PDEATHSIG = 1   # linux/prctl.h
+
+
+def _worker_init(parent: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent(parent)
+
+
+def _die_with_parent(parent: int) -> None:
+    """Have the kernel SIGKILL this worker when the process that started it dies (a SIGKILL of
+    `sgpipe` runs no handler, and the executor's workers would otherwise live on under PID 1,
+    holding their memory and the resource tracker). Linux only; elsewhere a no-op. The signal
+    follows the thread that started the worker: map_chunks starts (through submit) and waits
+    for its pool in one thread."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    except (OSError, AttributeError):  # pragma: no cover - no prctl in this libc
+        return
+    if os.getppid() != parent:
+        # the parent died before prctl took effect: nothing would signal us any more
+        os._exit(1)
 
 
 def _stop_pool(ex: ProcessPoolExecutor) -> None:
@@ -129,7 +154,7 @@ def map_chunks(fn: Callable[[Any], Any], items: Sequence[Any] | Iterable[Any], *
                     bar.update(1)
         else:
             ex = ProcessPoolExecutor(max_workers=n, mp_context=_WorkerContext(),
-                                     initializer=_worker_init)
+                                     initializer=_worker_init, initargs=(os.getpid(),))
             try:
                 futures = [ex.submit(fn, it) for it in items]
                 for f in futures:

@@ -2,6 +2,7 @@
 exit status 130 / 143 and one line, its pool workers with it; no staging or temp folder is left
 and the stages finished before it are intact."""
 
+import contextlib
 import json
 import os
 import signal
@@ -126,6 +127,48 @@ def test_pool_stage(tmp_path, sig, group):
     assert workers(proc.pid) == []
     assert sorted(p.name for p in out.iterdir()) == ["envmap"]
     assert_intact(out / "envmap")
+
+
+def _session_processes(sid: int, marker: bytes) -> list[int]:
+    """Live processes of the session `sid` whose command line holds `marker`."""
+    found = []
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
+            cmd = (d / "cmdline").read_bytes()
+        except OSError:
+            continue
+        if int(fields[3]) == sid and fields[0] != "Z" and marker in cmd:
+            found.append(int(d.name))
+    return found
+
+
+def test_killed_parent_takes_its_workers_with_it(tmp_path):
+    """SIGKILL of `sgpipe` alone (no handler runs) while two pool workers trace: the workers
+    and multiprocessing's resource tracker end within seconds instead of living on under
+    PID 1."""
+    cfg = write(tmp_path, SCENE + "visibility: {trace_resolution: 256, resolution: 8, "
+                "pca_terms: 4, sphere_subdivisions: 2, chunk_vertices: 4096}\nworkers: 2\n")
+    out = tmp_path / "out"
+    proc, err = start(tmp_path, "precompute", cfg, "--out", out)
+    try:
+        wait_for(proc, "two tracing workers", lambda: (out / ".visibility.tmp").is_dir()
+                 and len(workers(proc.pid)) == 2)
+        time.sleep(0.5)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=10)
+        t_end = time.monotonic() + 10.0
+        while (workers(proc.pid) or _session_processes(proc.pid, b"resource_tracker")) \
+                and time.monotonic() < t_end:
+            time.sleep(0.05)
+        assert workers(proc.pid) == [], "pool workers outlived their killed parent"
+        assert _session_processes(proc.pid, b"resource_tracker") == []
+    finally:
+        for pid in _session_processes(proc.pid, b""):
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
 
 
 def test_main_process_stage(tmp_path):
