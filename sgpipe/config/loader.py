@@ -26,6 +26,49 @@ def _line_map(node, path=(), out=None) -> dict[tuple, int]:
     return out
 
 
+#: Nodes a config may expand to with its aliases resolved: a real config has hundreds, and an
+#: alias bomb (nine levels of nine aliases: 500 bytes) would expand to 10⁹.
+MAX_EXPANDED_NODES = 100_000
+
+
+def _check_tree(node, path: Path) -> None:
+    """Refuse a duplicate key in any mapping (YAML leaves it to the loader; PyYAML keeps the
+    last one silently) and a document whose aliases expand it past MAX_EXPANDED_NODES. Sizes
+    are memoised per node, so an alias bomb is measured without being expanded."""
+    sizes: dict[int, int] = {}
+
+    def size(n) -> int:
+        got = sizes.get(id(n))
+        if got is not None:
+            return got
+        sizes[id(n)] = 1          # a recursive alias counts once, then grows no further
+        total = 1
+        if isinstance(n, yaml.MappingNode):
+            seen: dict[Any, int] = {}
+            for k, v in n.value:
+                if isinstance(k, yaml.ScalarNode):
+                    if k.value in seen:
+                        raise BadInput(f"duplicate key {k.value!r} (first on line "
+                                       f"{seen[k.value]})", file=path, line=k.start_mark.line + 1)
+                    seen[k.value] = k.start_mark.line + 1
+                total += size(k) + size(v)
+                if total > MAX_EXPANDED_NODES:
+                    break
+        elif isinstance(n, yaml.SequenceNode):
+            for v in n.value:
+                total += size(v)
+                if total > MAX_EXPANDED_NODES:
+                    break
+        if total > MAX_EXPANDED_NODES:
+            raise BadInput(f"the document expands to more than {MAX_EXPANDED_NODES} nodes "
+                           "through its aliases (&anchor / *alias); a config needs far fewer",
+                           file=path, line=n.start_mark.line + 1)
+        sizes[id(n)] = total
+        return total
+
+    size(node)
+
+
 def parse_yaml(path: Path) -> tuple[Any, dict[tuple, int]]:
     """Read and parse a YAML file; any failure is one BadInput line naming the file."""
     if not path.is_file():
@@ -35,8 +78,11 @@ def parse_yaml(path: Path) -> tuple[Any, dict[tuple, int]]:
     except (OSError, UnicodeDecodeError) as e:
         raise BadInput(f"cannot read config ({e})", file=path) from None
     try:
-        data = yaml.safe_load(text)
         node = yaml.compose(text, Loader=yaml.SafeLoader)
+        if node is None:
+            return None, {}
+        _check_tree(node, path)
+        data = yaml.SafeLoader("").construct_document(node)
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         problem = getattr(e, "problem", None) or str(e).splitlines()[0]

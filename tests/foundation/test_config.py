@@ -119,3 +119,64 @@ def test_resolved_config_round_trips_through_yaml(tmp_path):
     plain2 = to_plain(again)
     plain2.pop("source")
     assert plain2 == plain
+
+
+def _alias_bomb(levels=9, width=9) -> str:
+    rows = ['l0: &l0 [' + ", ".join(['"x"'] * width) + ']']
+    for i in range(1, levels):
+        rows.append(f"l{i}: &l{i} [" + ", ".join([f"*l{i - 1}"] * width) + "]")
+    return "\n".join(rows) + "\n"
+
+
+def test_alias_bomb_is_one_line_in_bounded_memory_and_time(tmp_path):
+    """A 500-byte YAML whose aliases expand to 9⁹ nodes (it grew to 3.1 GB and a MemoryError
+    traceback when the line map expanded it): through the real CLI under a 1 GiB address-space
+    limit, exit 2 within seconds, one line naming the file and line, nothing written."""
+    import resource
+    import subprocess
+    import sys
+    import time
+    p = write(tmp_path, _alias_bomb())
+    assert p.stat().st_size < 600
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))
+
+    t0 = time.monotonic()
+    r = subprocess.run([sys.executable, "-m", "sgpipe", "run", str(p), "--out",
+                        str(tmp_path / "out")], capture_output=True, text=True,
+                       preexec_fn=limit, timeout=60)
+    assert r.returncode == 2, r.stderr
+    assert time.monotonic() - t0 < 20
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"sgpipe: error: {p}:"), r.stderr
+    assert "aliases" in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_duplicate_keys_are_refused_with_both_lines(tmp_path):
+    p = write(tmp_path, "name: a\nrender:\n  spp: 4\n  spp: 8\n")
+    with pytest.raises(BadInput, match=r"duplicate key 'spp' \(first on line 3\)") as e:
+        load_config(p)
+    assert e.value.line == 4
+    with pytest.raises(BadInput, match="duplicate key 'name'"):
+        load_config(write(tmp_path, "name: a\nseed: 1\nname: b\n"))
+
+
+def test_anchors_aliases_and_merge_keys_still_load(tmp_path):
+    """What YAML users write on purpose (a shared camera, a merged base material) is kept."""
+    p = write(tmp_path, """
+        name: x
+        seed: &s 3
+        fit:
+          materials:
+            - &base {name: a, model: ggx, params: {alpha: 0.2, ks: 0.5}}
+            - {<<: *base, name: b}
+        render:
+          camera: &cam {width: 16, height: 16}
+          spp: *s
+        """)
+    cfg = load_config(p)
+    assert cfg.render.spp == 3 and cfg.render.camera.width == 16
+    assert [m.name for m in cfg.fit.materials] == ["a", "b"]
+    assert cfg.fit.materials[1].params == cfg.fit.materials[0].params
