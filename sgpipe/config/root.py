@@ -21,8 +21,11 @@ class Config:
 
     name: str = doc("Name of this pipeline run (used in reports and the default --out).",
                     "sgpipe")
-    seed: int = doc("Seed for every random choice; same seed + config = same bytes.", 0, ge=0)
-    workers: int = doc("Worker processes for chunked stages (0 = one per core).", 0, ge=0)
+    seed: int = doc("Seed for every random choice; same seed + config = same bytes (a 63-bit "
+                    "integer: random streams take it as a signed 64-bit number).", 0, ge=0,
+                    le=2 ** 63 - 1)
+    workers: int = doc("Worker processes for chunked stages (0 = one per core; at most 512, "
+                       "each holds its own copy of a chunk's data).", 0, ge=0, le=512)
     scheduler: str | None = doc(
         "Dask scheduler address (tcp://HOST:8786) to run chunked work on instead of local "
         "processes; overridden by $SGPIPE_SCHEDULER and --scheduler. Needs the [dask] extra. "

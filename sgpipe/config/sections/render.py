@@ -20,8 +20,9 @@ class CameraSpec:
     target: tuple[float, float, float] = doc("Point looked at.", (0.0, 0.5, 0.0))
     up: tuple[float, float, float] = doc("Up vector.", (0.0, 1.0, 0.0))
     fov_deg: float = doc("Vertical field of view (degrees).", 40.0, gt=0, lt=180)
-    width: int = doc("Image width (pixels).", 256, ge=1)
-    height: int = doc("Image height (pixels).", 256, ge=1)
+    width: int = doc("Image width (pixels; at most 8192: every pass holds the frame's G-buffer "
+                     "in memory).", 256, ge=1, le=8192)
+    height: int = doc("Image height (pixels; at most 8192, as width).", 256, ge=1, le=8192)
 
 
 @dataclass
