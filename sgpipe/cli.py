@@ -10,6 +10,7 @@ import click
 
 import sgpipe
 from sgpipe.errors import BadInput
+from sgpipe.io.disk import disk_full_error, disk_full_line
 
 EXIT_BAD_INPUT = 2
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -127,8 +128,8 @@ def cli():
     render with OpenCL, and measure the result against a Monte Carlo reference.
 
     Each stage command reads a YAML config and writes artifacts under OUT/<stage>/.
-    Exit status: 0 ok, 2 bad input, 1 internal error, 130 / 143 interrupted by SIGINT /
-    SIGTERM (nothing half-written is left; finished stages stay).
+    Exit status: 0 ok, 2 bad input or a full disk, 1 internal error, 130 / 143 interrupted by
+    SIGINT / SIGTERM (nothing half-written is left; finished stages stay).
     """
 
 
@@ -246,8 +247,8 @@ _register_commands()
 
 
 def main(argv=None):
-    """Entry point: BadInput -> one line on stderr, exit 2; bugs -> traceback, exit 1;
-    SIGINT / SIGTERM -> one line, exit 128 + signal number (130 / 143)."""
+    """Entry point: BadInput or a full disk -> one line on stderr, exit 2; bugs -> traceback,
+    exit 1; SIGINT / SIGTERM -> one line, exit 128 + signal number (130 / 143)."""
     old_handlers = _install_signal_handlers()
     try:
         try:
@@ -263,6 +264,11 @@ def main(argv=None):
             _exit_interrupted(_received[0] if _received else e.signum)
         if isinstance(e, BadInput):
             click.echo(f"sgpipe: error: {e.one_line()}", err=True)
+            sys.exit(EXIT_BAD_INPUT)
+        full = disk_full_error(e)
+        if full is not None:
+            # the stage removed its staging folder on the way up: nothing is half-written
+            click.echo(f"sgpipe: error: {disk_full_line(full)}", err=True)
             sys.exit(EXIT_BAD_INPUT)
         if isinstance(e, click.exceptions.Abort):
             click.echo("sgpipe: aborted", err=True)

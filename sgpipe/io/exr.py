@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import os
 from pathlib import Path
 
@@ -9,6 +10,7 @@ import numpy as np
 
 from sgpipe.errors import BadInput
 from sgpipe.io.atomic import atomic_path
+from sgpipe.io.disk import disk_full_message
 
 
 def _oiio():
@@ -50,12 +52,25 @@ def write_exr(path: str | os.PathLike, image: np.ndarray, *, half: bool = False,
     with atomic_path(path) as tmp:
         out = oiio.ImageOutput.create(str(tmp))
         if out is None or not out.open(str(tmp), spec):
-            raise BadInput(f"cannot write EXR: {oiio.geterror()}", file=path)
+            _write_failed(path, oiio.geterror(), img.nbytes)
         ok = out.write_image(np.ascontiguousarray(img))
         out.close()
         if not ok:
-            raise BadInput(f"cannot write EXR: {out.geterror()}", file=path)
+            _write_failed(path, out.geterror(), img.nbytes)
     return path
+
+
+def _write_failed(path: Path, why: str, nbytes: int):
+    """OpenImageIO reports no errno: a failed write with less free space than the raw pixels
+    (an upper bound of the compressed file) is a full disk, else one BadInput line."""
+    import shutil
+    try:
+        free = shutil.disk_usage(path.parent).free
+    except OSError:
+        free = None
+    if free is not None and free < nbytes + (1 << 16):
+        raise OSError(errno.ENOSPC, disk_full_message(path, nbytes), str(path))
+    raise BadInput(f"cannot write EXR: {' '.join(str(why).split())}", file=path)
 
 
 def read_exr(path: str | os.PathLike, *, channels: tuple[int, ...] | None = None,

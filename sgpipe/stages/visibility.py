@@ -11,6 +11,7 @@ import numpy as np
 from sgpipe.artifacts import visibility as artifacts
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
+from sgpipe.io.disk import allocated_memmap
 from sgpipe.io.mesh import MeshGeometry, load_scene
 from sgpipe.parallel import chunk_ranges, map_chunks
 from sgpipe.stages.base import StageRun, log
@@ -56,7 +57,7 @@ def _run(cfg, run: StageRun, tmp: Path) -> None:
     tasks, ssdf_paths = [], []
     for k, g in enumerate(geoms):
         path = tmp / f"ssdf_{k}.f32"
-        np.memmap(path, dtype=np.float32, mode="w+", shape=(len(g.positions), d)).flush()
+        allocated_memmap(path, np.float32, (len(g.positions), d))
         ssdf_paths.append(path)
         b = g.bitangents
         for s, e in chunk_ranges(len(g.positions), v.chunk_vertices):
