@@ -47,8 +47,10 @@ def read_npz(path: str | os.PathLike, *, key: str | None = None,
     try:
         with np.load(path, allow_pickle=False) as z:
             out = {k: z[k] for k in z.files}
-    except (OSError, ValueError, zipfile.BadZipFile) as e:
-        raise BadInput(f"unreadable NPZ ({e})", file=path, key=key) from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
+        # EOFError: an empty file (left uncaught, click turned it into a bare "aborted")
+        raise BadInput(f"unreadable NPZ ({e or type(e).__name__})", file=path,
+                       key=key) from None
     missing = [r for r in required if r not in out]
     if missing:
         raise BadInput(f"missing arrays {missing}", file=path, key=key)

@@ -239,7 +239,12 @@ class StageRun(FolderSink):
         # truncated artifact makes the stage run again instead of failing downstream.
         for name, digest in man["outputs"].items():
             p = self.final_dir / name
-            if not p.is_file() or file_hash(p) != digest:
+            try:
+                same = p.is_file() and file_hash(p) == digest
+            except OSError as e:            # unreadable (permissions, I/O error)
+                log(f"[{self.stage}] {p} is unreadable ({e.strerror}): rerunning")
+                return False
+            if not same:
                 log(f"[{self.stage}] {p} is missing or changed since it was written: rerunning")
                 return False
         return True

@@ -1,6 +1,7 @@
 """StageRun: manifest, skip when unchanged, --force, nothing half-written, determinism."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -137,6 +138,35 @@ def test_damaged_output_reruns(cfg, tmp_path, damage, capsys):
     assert "missing or changed" in capsys.readouterr().err
     assert target.read_bytes() == good
     assert _run(cfg, out, {"v": 1.0}).skipped
+
+
+def test_unreadable_output_reruns(cfg, tmp_path, capsys, monkeypatch):
+    """An artifact that cannot be read (mode 000 for a non-root user; root reads through it,
+    so the read error is injected here) made the skip check a PermissionError traceback."""
+    import sgpipe.stages.base as base
+    out = tmp_path / "out"
+    _run(cfg, out, {"v": 1.0})
+    real = base.file_hash
+
+    def denied(p, *a):
+        if Path(p) == out / "demo" / "img.exr":      # the published one, not the rerun's
+            raise PermissionError(13, "Permission denied", str(p))
+        return real(p, *a)
+
+    monkeypatch.setattr(base, "file_hash", denied)
+    capsys.readouterr()
+    assert not _run(cfg, out, {"v": 1.0}).skipped
+    assert "img.exr is unreadable (Permission denied): rerunning" in capsys.readouterr().err
+
+
+def test_empty_npz_is_one_line_naming_it(tmp_path):
+    """np.load raises EOFError on an empty file, which click turned into a bare 'aborted'."""
+    from sgpipe.io import read_npz
+    p = tmp_path / "ndf_sg.npz"
+    p.write_bytes(b"")
+    with pytest.raises(BadInput, match="unreadable NPZ") as e:
+        read_npz(p, key="fit.ndf_sg")
+    assert e.value.file == str(p) and e.value.key == "fit.ndf_sg"
 
 
 def test_manifest_without_outputs_is_not_up_to_date(cfg, tmp_path):
