@@ -310,8 +310,10 @@ class StageRun(FolderSink):
         resolved = to_plain(self.cfg) if self.cfg is not None else {}
         if isinstance(resolved, dict):
             resolved.pop("source", None)
-            # where the chunks ran is not what was computed: local and Dask runs are the same bytes
+            # where and on how many processes the chunks ran is not what was computed: local,
+            # Dask and any worker count give the same bytes
             resolved.pop("scheduler", None)
+            resolved.pop("workers", None)
         (self.staging / "config.resolved.yaml").write_text(
             "# input files are relative to the folder of the config this run read\n"
             + yaml.safe_dump(resolved, sort_keys=True))
