@@ -255,6 +255,18 @@ class StageRun(FolderSink):
         self.scratch.mkdir(parents=True, exist_ok=True)
         return self.scratch
 
+    def _refuse_foreign_folder(self) -> None:
+        """A non-empty OUT/<stage> folder with none of the files every stage writes is the
+        user's own: publishing would replace (delete) it, so say so instead."""
+        d = self.final_dir
+        if not d.is_dir() or not any(d.iterdir()):
+            return
+        if not any((d / n).is_file() for n in ("manifest.json", "config.resolved.yaml",
+                                                "timings.json")):
+            raise BadInput(f"exists and was not written by sgpipe (no manifest.json); the "
+                           f"{self.stage} stage would replace it: move it away or choose "
+                           "another --out", file=d, key="--out")
+
     def _remove_leftovers(self) -> None:
         """Staging / scratch / swap folders of a run of this stage that was killed (SIGKILL,
         power loss); safe because this process holds the folder lock."""
@@ -269,6 +281,7 @@ class StageRun(FolderSink):
         self._lock.__enter__()
         try:
             self._remove_leftovers()
+            self._refuse_foreign_folder()
             self._input_hash_map = self._input_hashes()
             if self._up_to_date(self._input_hash_map):
                 self.skipped = True

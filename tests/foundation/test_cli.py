@@ -173,3 +173,30 @@ def test_interruption_in_a_c_callback_is_quiet(handlers):
     with pytest.raises(cli.Interrupted):
         _spin(2.0)
     assert cli.unraisable == []
+
+
+def test_empty_out_is_refused_not_the_current_folder(tmp_path):
+    """`--out "$UNSET"` wrote the stage folders into the current folder."""
+    p = write(tmp_path, "name: x\nfit:\n  materials:\n    - {name: m, model: lambert}\n")
+    work = tmp_path / "cwd"
+    work.mkdir()
+    assert_bad_input(sgpipe("fit", p, "--out", "", cwd=work), "--out: is empty")
+    assert list(work.iterdir()) == []
+    f = tmp_path / "file.txt"
+    f.write_text("x")
+    assert_bad_input(sgpipe("fit", p, "--out", f), "is a file, not a folder")
+
+
+def test_users_own_folder_named_like_a_stage_is_kept(tmp_path):
+    """OUT/fit holding the user's files (no manifest) was replaced, i.e. deleted, without a
+    word; an sgpipe stage folder is still replaced as before."""
+    p = write(tmp_path, "name: x\nfit:\n  materials:\n    - {name: m, model: lambert}\n")
+    out = tmp_path / "out"
+    (out / "fit").mkdir(parents=True)
+    (out / "fit" / "notes.txt").write_text("mine")
+    assert_bad_input(sgpipe("fit", p, "--out", out), f"{out / 'fit'}: --out:",
+                     "not written by sgpipe")
+    assert (out / "fit" / "notes.txt").read_text() == "mine"
+    (out / "fit" / "notes.txt").unlink()
+    assert sgpipe("fit", p, "--out", out).returncode == 0     # an empty folder is fine
+    assert (out / "fit" / "manifest.json").is_file()
