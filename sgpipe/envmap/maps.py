@@ -19,21 +19,37 @@ from sgpipe.errors import BadInput
 from sgpipe.io import read_exr
 
 KEY = "envmap.environment"
+#: Radiance above this overflows float32 in the sums over a map (irradiance, pyramid levels).
+MAX_RADIANCE = 1e30
+#: Rows of the largest map read: 8192 × 16384 is 3.2 GB as the float64 working copy.
+MAX_ROWS = 8192
 
 
 def read_environment(path: str | Path, *, key: str = KEY) -> np.ndarray:
-    """Read a lat-long HDR map (EXR/HDR, any size, 3 or 4 channels) → (H, W, 3) float64.
+    """Read a lat-long HDR map (EXR/HDR, width / height between 1.5 and 2.5, at most MAX_ROWS
+    rows, 3 or 4 channels) → (H, W, 3) float64.
 
     Missing/unreadable files, NaN/Inf and other channel counts are BadInput naming the file and
-    `key`; a map with negative radiance is rejected too (radiance is non-negative)."""
+    `key`; so are a map with negative radiance (radiance is non-negative) or radiance above
+    MAX_RADIANCE, and other shapes."""
     img = read_exr(path, channels=(3, 4), key=key)
-    if img.shape[0] < 2 or img.shape[1] < 2:
-        raise BadInput(f"image is {img.shape[1]}x{img.shape[0]}: too small for a lat-long map",
+    h, w = img.shape[:2]
+    if h < 2 or w < 2:
+        raise BadInput(f"image is {w}x{h}: too small for a lat-long map", file=path, key=key)
+    if not 1.5 <= w / h <= 2.5:
+        raise BadInput(f"image is {w}x{h}: a lat-long map is twice as wide as it is high",
+                       file=path, key=key)
+    if h > MAX_ROWS:
+        raise BadInput(f"image is {w}x{h}: more than {MAX_ROWS} rows (downsample it first)",
                        file=path, key=key)
     img = np.asarray(img[:, :, :3], dtype=np.float64)
     neg = int((img < 0).any(axis=2).sum())
     if neg:
         raise BadInput(f"contains negative radiance in {neg} pixels", file=path, key=key)
+    big = int((img > MAX_RADIANCE).any(axis=2).sum())
+    if big:
+        raise BadInput(f"radiance above {MAX_RADIANCE:g} in {big} pixels (sums over the map "
+                       "would overflow float32)", file=path, key=key)
     return img
 
 

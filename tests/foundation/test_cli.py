@@ -78,6 +78,21 @@ def test_nonfinite_environment_exr(tmp_path):
     assert not (out / "envmap").exists()
 
 
+@pytest.mark.parametrize("shape,value,needle", [
+    ((8, 16, 3), 3e38, "radiance above 1e+30 in 1 pixels"),   # wrote Inf into the pyramid
+    ((2, 1000, 3), 1.0, "twice as wide as it is high"),
+    ((16, 16, 3), 1.0, "twice as wide as it is high"),
+])
+def test_environment_out_of_range(tmp_path, shape, value, needle):
+    img = np.ones(shape, np.float32)
+    img[1, 1, 0] = value
+    write_exr(tmp_path / "env.exr", img)
+    out = tmp_path / "out"
+    res = sgpipe("precompute", _env_config(tmp_path, "env.exr"), "--out", out)
+    assert_bad_input(res, "env.exr", "envmap.environment", needle)
+    assert not out.exists()
+
+
 def test_wrong_channel_count_environment(tmp_path):
     write_exr(tmp_path / "env.exr", np.ones((8, 16, 2), np.float32))
     res = sgpipe("precompute", _env_config(tmp_path, "env.exr"), "--out", tmp_path / "out")
