@@ -108,3 +108,12 @@ def test_analytic_sphere_object_uses_exact_normals():
     r = g.positions - [1.0, 0.0, 0.0]
     np.testing.assert_allclose(np.linalg.norm(r, axis=1), 2.0)
     np.testing.assert_allclose(g.normals, r / 2.0, atol=1e-12)
+
+
+def test_obj_that_is_not_utf8_loads(tmp_path):
+    """A valid OBJ with one Latin-1 byte (a comment written by an old exporter) failed with
+    "No module named 'charset_normalizer'": trimesh needs it to decode such text."""
+    p = tmp_path / "latin1.obj"
+    p.write_bytes(QUAD_OBJ.encode() + "# mod\xe8le export\xe9\n".encode("latin-1"))
+    g = load_object(ObjectSpec(name="q", mesh=str(p)))
+    assert len(g.positions) == 4 and len(g.faces) == 2
