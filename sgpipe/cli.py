@@ -125,6 +125,11 @@ def _run_stages(names: list[str], config, out_dir, overrides, force):
     from sgpipe.stages.base import folder_lock
     from sgpipe.parallel import cluster
     cfg, out = _load(config, overrides, out_dir)
+    if len(names) > 1 and cfg.scene is not None and cfg.scene.objects:
+        # a bad mesh is the config's error: found before the first stage writes anything,
+        # not after fit and envmap are done
+        from sgpipe.io.mesh import load_scene
+        load_scene(cfg.scene, sphere_subdivisions=0)
     address, key = click.get_current_context().meta.get("sgpipe.scheduler", (None, None))
     where = {"key": key} if address else {"file": cfg.source, "key": "scheduler"}
     # connected before the folder lock: an unreachable scheduler writes nothing

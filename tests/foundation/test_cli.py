@@ -132,6 +132,26 @@ def test_empty_mesh(tmp_path):
     assert not (out / "visibility").exists()
 
 
+def test_bad_mesh_stops_run_before_any_stage_writes(tmp_path):
+    """`sgpipe run` found a bad mesh only in the visibility stage, after fit and envmap had
+    written their folders."""
+    (tmp_path / "empty.obj").write_text("# no geometry\n")
+    write_exr(tmp_path / "env.exr", np.ones((8, 16, 3), np.float32))
+    p = write(tmp_path, """
+        scene:
+          objects:
+            - {name: thing, mesh: empty.obj, material: m}
+        fit:
+          materials:
+            - {name: m, model: lambert}
+        envmap: {environment: env.exr, cube_resolution: 8}
+        visibility: {trace_resolution: 16, resolution: 8, pca_terms: 2}
+    """)
+    out = tmp_path / "out"
+    assert_bad_input(sgpipe("run", p, "--out", out), "empty.obj")
+    assert not out.exists() or list(out.iterdir()) == []
+
+
 def _spin(seconds: float) -> None:
     t_end = time.monotonic() + seconds
     while time.monotonic() < t_end:
