@@ -45,3 +45,27 @@ def test_same_config_gives_byte_identical_artifacts_and_reruns_skip(tmp_path):
     for stage in ("fit", "envmap", "visibility", "render"):
         assert f"[{stage}] up to date" in again.stderr, again.stderr
     assert _files(a) == fa
+
+
+@pytest.mark.slow
+def test_render_refuses_upstream_artifacts_made_for_another_config(tmp_path):
+    """`sgpipe render --set` with a material or map parameter changed rendered with the fit /
+    environment made for the old value, silently. It now names the stage and the first key
+    that differs; the unchanged config still renders."""
+    cfg = tmp_path / "tiny.yaml"
+    cfg.write_text(textwrap.dedent(tiny_config("[sg]", workers=1)).replace(
+        "compare_to: reference", "compare_to: null"))
+    out = tmp_path / "o"
+    r = sgpipe("run", cfg, "--out", out)
+    assert r.returncode == 0, r.stderr
+    for override, stage, key in (
+            ("fit.materials.0.params.alpha=0.3", "fit", "fit.materials.0.params.alpha: 0.15 -> 0.3"),
+            ("envmap.cube_resolution=8", "envmap", "envmap.cube_resolution"),
+            ("scene.objects.0.sphere_radius=0.6", "visibility", "scene.objects.0.sphere_radius")):
+        r = sgpipe("render", cfg, "--out", out, "--set", override)
+        assert r.returncode == 2, r.stderr
+        lines = [ln for ln in r.stderr.splitlines() if ln.startswith("sgpipe: error:")]
+        assert len(lines) == 1 and f"{out / stage}: {stage}: was made for another config" \
+            in lines[0] and key in lines[0], r.stderr
+    r = sgpipe("render", cfg, "--out", out)
+    assert r.returncode == 0 and "[render] up to date" in r.stderr, r.stderr

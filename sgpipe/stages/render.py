@@ -18,7 +18,14 @@ import numpy as np
 from sgpipe.artifacts import render as art
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
-from sgpipe.stages.base import StageRun, log
+from sgpipe.stages.base import StageRun, log, upstream_difference
+
+#: The stages render reads: (stage, the command that makes it, the config sections its
+#: artifacts are computed from — the same its own cache key holds).
+UPSTREAM = (("fit", "fit", ("fit",)), ("envmap", "precompute", ("envmap",)),
+            ("visibility", "precompute", ("visibility", "scene")),
+            ("transport", "precompute", ("transport", "scene", "fit.materials")),
+            ("normalmap", "precompute", ("normalmap", "scene")))
 
 
 def _inputs(cfg, out_dir: Path) -> list[Path]:
@@ -62,12 +69,18 @@ def run(cfg, out_dir: Path, *, force: bool = False):
 
     out_dir = Path(out_dir)
     rs = cfg.render
-    for stage, cmd in (("fit", "fit"), ("envmap", "precompute"), ("visibility", "precompute"),
-                       ("transport", "precompute"), ("normalmap", "precompute")):
-        done = (out_dir / stage / "manifest.json").is_file()
-        if getattr(cfg, stage) is not None and not done:
+    for stage, cmd, sections in UPSTREAM:
+        if getattr(cfg, stage) is None:
+            continue
+        if not (out_dir / stage / "manifest.json").is_file():
             raise BadInput(f"no {stage} artifacts here: run `sgpipe {cmd}` (or `sgpipe run`) "
                            f"with the same --out first", file=out_dir / stage, key=stage)
+        # artifacts made for another config would be rendered silently as this one's
+        diff = upstream_difference(cfg, out_dir, stage, sections)
+        if diff:
+            raise BadInput(f"was made for another config ({diff}): run `sgpipe {cmd}` (or "
+                           "`sgpipe run`) with the same --out first", file=out_dir / stage,
+                           key=stage)
     params = {"render": to_plain(rs), "scene": to_plain(cfg.scene),
               "materials": to_plain(cfg.fit.materials) if cfg.fit is not None else []}
     with StageRun(cfg, out_dir, "render", params=params, inputs=_inputs(cfg, out_dir),
