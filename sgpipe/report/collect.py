@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from sgpipe.errors import BadInput
+from sgpipe.io import file_hash
 
 #: stages with a section of their own, in pipeline order; any other `<stage>/manifest.json`
 #: found in the folder is listed with its manifest only
@@ -50,6 +51,7 @@ class Stage:
     manifest: dict
     timings: dict
     missing: list[str] = field(default_factory=list)   # listed outputs not on disk
+    changed: list[str] = field(default_factory=list)   # on disk, not the bytes the manifest lists
 
     @property
     def outputs(self) -> dict:
@@ -142,13 +144,24 @@ def find_stages(run_dir: Path) -> dict[str, Stage]:
         tim = _json(folder / TIMINGS, name) if (folder / TIMINGS).is_file() else {}
         st = Stage(name, folder, man, tim if isinstance(tim, dict) else {})
         st.missing = sorted(f for f in st.outputs if not (folder / f).is_file())
+        st.changed = sorted(f for f, digest in st.outputs.items()
+                            if f not in st.missing and not _same_bytes(folder / f, digest))
         stages[name] = st
     return stages
 
 
+def _same_bytes(path: Path, digest: str) -> bool:
+    try:
+        return file_hash(path) == digest
+    except OSError:
+        return False
+
+
 def picture(stage: Stage, name: str, caption: str) -> Picture | None:
-    """The stage's output `name` as a Picture (None when not listed or not on disk)."""
-    if name not in stage.outputs or not (stage.folder / name).is_file():
+    """The stage's output `name` as a Picture (None when not listed, not on disk, or changed
+    since the stage wrote it)."""
+    if (name not in stage.outputs or not (stage.folder / name).is_file()
+            or name in stage.changed):
         return None
     w, h = png_size(stage.folder / name)
     return Picture(stage.folder / name, f"assets/{stage.name}/{name}", caption, w, h)

@@ -129,6 +129,21 @@ def test_listed_but_missing_picture_is_reported_not_linked(tiny_run, tmp_path):
     assert "assets/render/gmm.diff.png" not in html
 
 
+def test_changed_artifact_is_reported_not_shown(tiny_run, tmp_path):
+    """A flipped byte in a listed output gave a report identical to the intact run's."""
+    run = tmp_path / "run"
+    shutil.copytree(tiny_run, run, ignore=shutil.ignore_patterns("report"))
+    png = run / "render" / "sg.png"
+    data = bytearray(png.read_bytes())
+    data[-20] ^= 0xFF
+    png.write_bytes(bytes(data))
+    assert _cli(["report", run]) == 0
+    html = (run / "report" / "index.html").read_text()
+    assert "1 outputs changed since written" in html
+    assert "sg.png" in html.split("changed since the stage wrote them")[1].split("</p>")[0]
+    assert "assets/render/sg.png" not in html
+
+
 def _one_line_error(capsys) -> str:
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1, err
