@@ -9,7 +9,7 @@ OUT    ?= out
 
 VALIDATE_STAMP := $(VENV)/.sgpipe-validate-installed
 
-.PHONY: setup opencl browser demo test bench validate figures samples doctor clean
+.PHONY: setup opencl browser demo test fuzz bench validate figures samples doctor clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -47,6 +47,10 @@ demo: setup
 ## the test suite (what CI runs)
 test: setup
 	$(PY) -m pytest -q -n 2 --dist loadfile
+
+## the config loader and file readers against damaged input, longer than `make test` runs it
+fuzz: setup
+	SGPIPE_FUZZ_EXAMPLES=$${SGPIPE_FUZZ_EXAMPLES:-5000} $(PY) -m pytest -q tests/foundation/test_fuzz.py
 
 ## speed and memory targets, printed as ratios against baselines measured in the same run
 bench: setup $(BENCH_STAMP)

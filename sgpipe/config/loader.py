@@ -33,15 +33,20 @@ MAX_EXPANDED_NODES = 100_000
 
 def _check_tree(node, path: Path) -> None:
     """Refuse a duplicate key in any mapping (YAML leaves it to the loader; PyYAML keeps the
-    last one silently) and a document whose aliases expand it past MAX_EXPANDED_NODES. Sizes
-    are memoised per node, so an alias bomb is measured without being expanded."""
+    last one silently), a recursive alias, and a document whose aliases expand it past
+    MAX_EXPANDED_NODES. Sizes are memoised per node, so an alias bomb is measured without
+    being expanded."""
     sizes: dict[int, int] = {}
+    open_: set[int] = set()       # nodes whose size is being measured: the path from the root
 
     def size(n) -> int:
+        if id(n) in open_:
+            raise BadInput("an alias refers to a node that contains it (a recursive alias); "
+                           "a config is a tree", file=path, line=n.start_mark.line + 1)
         got = sizes.get(id(n))
         if got is not None:
             return got
-        sizes[id(n)] = 1          # a recursive alias counts once, then grows no further
+        open_.add(id(n))
         total = 1
         if isinstance(n, yaml.MappingNode):
             seen: dict[Any, int] = {}
@@ -63,6 +68,7 @@ def _check_tree(node, path: Path) -> None:
             raise BadInput(f"the document expands to more than {MAX_EXPANDED_NODES} nodes "
                            "through its aliases (&anchor / *alias); a config needs far fewer",
                            file=path, line=n.start_mark.line + 1)
+        open_.discard(id(n))
         sizes[id(n)] = total
         return total
 

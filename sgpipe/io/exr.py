@@ -18,6 +18,15 @@ def _oiio():
     return oiio
 
 
+def oiio_error(source) -> str:
+    """OpenImageIO's pending error message from `source` (the module or an ImageInput /
+    ImageOutput), stripped; a damaged file's bytes can make it undecodable as UTF-8."""
+    try:
+        return " ".join(str(source.geterror()).split())
+    except UnicodeDecodeError:
+        return "an error message that is not UTF-8 text"
+
+
 def write_exr(path: str | os.PathLike, image: np.ndarray, *, half: bool = False,
               metadata: dict | None = None, channel_names: list[str] | None = None) -> Path:
     """Write an (H, W) or (H, W, C) float image atomically. `metadata` values become EXR
@@ -52,11 +61,11 @@ def write_exr(path: str | os.PathLike, image: np.ndarray, *, half: bool = False,
     with atomic_path(path) as tmp:
         out = oiio.ImageOutput.create(str(tmp))
         if out is None or not out.open(str(tmp), spec):
-            _write_failed(path, oiio.geterror(), img.nbytes)
+            _write_failed(path, oiio_error(oiio), img.nbytes)
         ok = out.write_image(np.ascontiguousarray(img))
         out.close()
         if not ok:
-            _write_failed(path, out.geterror(), img.nbytes)
+            _write_failed(path, oiio_error(out), img.nbytes)
     return path
 
 
@@ -84,16 +93,16 @@ def read_exr(path: str | os.PathLike, *, channels: tuple[int, ...] | None = None
         raise BadInput("file not found", file=path, key=key)
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
-        raise BadInput(f"unreadable image ({oiio.geterror().strip() or 'unknown format'})",
+        raise BadInput(f"unreadable image ({oiio_error(oiio) or 'unknown format'})",
                        file=path, key=key)
     try:
         spec = inp.spec()
         data = inp.read_image(oiio.FLOAT)
-        err = inp.geterror()
+        err = oiio_error(inp)
     finally:
         inp.close()
     if data is None or (isinstance(data, np.ndarray) and data.size == 0):
-        raise BadInput(f"unreadable image ({err.strip() or 'no pixels'})", file=path, key=key)
+        raise BadInput(f"unreadable image ({err or 'no pixels'})", file=path, key=key)
     img = np.asarray(data, dtype=np.float32)
     if img.ndim == 2:
         img = img[:, :, None]

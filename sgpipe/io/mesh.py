@@ -211,6 +211,15 @@ def _read_mesh_file(path: Path, key: str | None):
     Ps, Fs, Ns, UVs, off = [], [], [], [], 0
     for M, g in parts:
         v = np.asarray(g.vertices, float)
+        f = np.asarray(g.faces)
+        # a damaged file can parse into vertices without coordinates or faces past the end
+        if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3:
+            raise BadInput(f"malformed mesh (vertices {v.shape}, faces {f.shape})", file=path,
+                           key=key)
+        out_of_range = f[(f < 0) | (f >= len(v))]
+        if out_of_range.size:
+            raise BadInput(f"a face refers to vertex index {int(out_of_range[0])} of "
+                           f"{len(v)} vertices", file=path, key=key)
         n = g._cache["vertex_normals"] if "vertex_normals" in g._cache else None
         n = None if n is None or np.shape(n) != v.shape else np.asarray(n, float)
         v, n = _transform(M, v, n)

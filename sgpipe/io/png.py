@@ -11,6 +11,7 @@ import numpy as np
 
 from sgpipe.errors import BadInput
 from sgpipe.io.atomic import atomic_path
+from sgpipe.io.exr import oiio_error
 
 
 def tonemap_srgb(image: np.ndarray, *, exposure: float = 0.0) -> np.ndarray:
@@ -38,7 +39,7 @@ def write_png(path: str | os.PathLike, image: np.ndarray, *, exposure: float = 0
     with atomic_path(path) as tmp:
         out = oiio.ImageOutput.create(str(tmp))
         if out is None or not out.open(str(tmp), spec):
-            raise OSError(f"{path}: cannot write PNG: {oiio.geterror()}")
+            raise OSError(f"{path}: cannot write PNG: {oiio_error(oiio)}")
         out.write_image(np.ascontiguousarray(img.astype(np.uint8)))
         out.close()
     return path
@@ -53,7 +54,7 @@ def read_data_image(path: str | os.PathLike, key: str | None = None) -> tuple[np
     config.attribute("oiio:UnassociatedAlpha", 1)
     inp = oiio.ImageInput.open(str(path), config)
     if inp is None:
-        raise BadInput(f"unreadable image ({oiio.geterror().strip() or 'unknown format'})",
+        raise BadInput(f"unreadable image ({oiio_error(oiio) or 'unknown format'})",
                        file=path, key=key)
     try:
         fmt = str(inp.spec().format)

@@ -184,3 +184,10 @@ def test_anchors_aliases_and_merge_keys_still_load(tmp_path):
     assert cfg.render.spp == 3 and cfg.render.camera.width == 16
     assert [m.name for m in cfg.fit.materials] == ["a", "b"]
     assert cfg.fit.materials[1].params == cfg.fit.materials[0].params
+
+
+def test_recursive_alias_is_one_line(tmp_path):
+    """`x: &x [*x]` (found by tests/foundation/test_fuzz.py) sent the line map into unbounded
+    recursion (RecursionError traceback)."""
+    with pytest.raises(BadInput, match="recursive alias"):
+        load_config(write(tmp_path, "name: a\nx: &x [1, *x]\n"))
