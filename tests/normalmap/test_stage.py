@@ -38,11 +38,12 @@ normalmap: {{sh_order: 2, lobes: 3{extra}}}
 TEXEL_CENTRES = ", bilinear_samples: 1"
 
 
-def make(tmp_path, extra="", floor=SAMPLES / "floor.obj"):
+def make(tmp_path, extra="", floor=SAMPLES / "floor.obj", lobes=3):
     n = sample_normalmaps.grooves_normals(256)[:32, :32]
     write_image(tmp_path / "grooves.png", n * 0.5 + 0.5, "uint16")
     p = tmp_path / "c.yaml"
-    p.write_text(textwrap.dedent(CONFIG.format(floor=floor, extra=extra)))
+    p.write_text(textwrap.dedent(CONFIG.format(floor=floor, extra=extra)).replace(
+        "lobes: 3", f"lobes: {lobes}"))
     return load_config(p)
 
 
@@ -128,7 +129,7 @@ def test_no_uvs_and_bad_map_are_one_line_nothing_written(tmp_path):
 
 def test_config_bounds(tmp_path):
     with pytest.raises(BadInput, match="<= 8") as e:
-        make(tmp_path, extra=", lobes: 9")
+        make(tmp_path, lobes=9)
     assert "normalmap.lobes" in e.value.one_line()
     with pytest.raises(BadInput, match="duplicate"):
         make(tmp_path, extra=", methods: [vmf, vmf]")
