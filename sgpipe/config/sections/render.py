@@ -117,7 +117,8 @@ class RenderSection:
     preview_exposure: float = doc("Exposure (stops) of the PNG previews (clamp + sRGB).", 0.0,
                                   ge=-30, le=30)
     background: bool = doc("Show the environment where primary rays miss (else black).", True)
-    spp: int = doc("Samples per pixel of the `reference` method.", 256, ge=1)
+    spp: int = doc("Samples per pixel of the `reference` method (at most 2²⁰: its time grows "
+                   "linearly with them).", 256, ge=1, le=2 ** 20)
     pixel_filter: PixelFilterSpec = doc(
         "Pixel filter of the `reference`: each sample's camera ray passes through a sub-pixel "
         "position drawn from it, so silhouettes and directly seen lamps are integrated over "

@@ -13,21 +13,24 @@ class VisibilitySection:
     """Visibility precomputation for the objects of `scene:` (Wang09 §5)."""
 
     trace_resolution: int = doc("Concentric-square trace resolution per vertex "
-                                "(trace_resolution² occlusion rays per vertex).", 512, ge=8)
+                                "(trace_resolution² occlusion rays per vertex; at most 2048: 4·10⁶ rays per vertex).",
+                                512, ge=8, le=2048)
     resolution: int = doc("Downsampled visibility/SSDF resolution (must divide "
-                          "trace_resolution).", 128, ge=4)
+                          "trace_resolution; at most 512).", 128, ge=4, le=512)
     sampling: Literal["full", "adaptive"] = doc(
         "'full' traces every trace texel (Wang09 §5.2); 'adaptive' traces one ray per "
         "output texel and all trace texels only near visibility changes (faster; misses "
         "occluders smaller than an output texel).", "full")
     adaptive_margin: int = doc("Adaptive sampling: output texels refined around each "
                                "coarse visibility change.", 1, ge=1, le=8)
-    pca_terms: int = doc("Number of PCA terms N_V (Wang09 eq 24).", 48, ge=1)
+    pca_terms: int = doc("Number of PCA terms N_V (Wang09 eq 24; at most resolution², the "
+                         "SSDF's texel count).", 48, ge=1)
     max_distance_deg: float = doc("Clamp of the SSDF magnitude (degrees); also the value "
                                   "of fully occluded hemispheres.", 90.0, gt=0, le=90)
     ray_offset: float = doc("Self-intersection offset along the vertex normal, as a "
                             "fraction of the scene's bounding-box diagonal.", 1e-4, gt=0, lt=0.1)
-    chunk_vertices: int = doc("Vertices per parallel work item (bounds memory).", 128, ge=1)
+    chunk_vertices: int = doc("Vertices per parallel work item (bounds memory; at most "
+                              "65536).", 128, ge=1, le=65536)
     sphere_subdivisions: int = doc("Icosphere subdivisions for `sphere_radius` objects.",
                                    4, ge=0, le=7)
     power_iterations: int = doc("Power iterations of the randomized streaming PCA.", 3,
@@ -45,5 +48,8 @@ class VisibilitySection:
         if self.trace_resolution % self.resolution:
             raise ValueError(f"resolution: must divide trace_resolution "
                              f"({self.trace_resolution}), got {self.resolution}")
+        if self.pca_terms > self.resolution ** 2:
+            raise ValueError(f"pca_terms: at most resolution² ({self.resolution ** 2}, the "
+                             f"SSDF's texel count), got {self.pca_terms}")
         if any(not (lam > 0) for lam in self.report_lambdas):
             raise ValueError("report_lambdas: every sharpness must be > 0")
