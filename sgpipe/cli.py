@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 
 import sgpipe
+from sgpipe.cli_args import out_folder
 from sgpipe.errors import BadInput
 from sgpipe.io.disk import disk_full_error, disk_full_line
 
@@ -94,23 +95,10 @@ def _config_options(f):
     f = click.option("--set", "overrides", multiple=True, metavar="KEY.PATH=VALUE",
                      help="Override a config value (YAML syntax), e.g. "
                      "--set render.camera.width=64. Repeatable.")(f)
-    f = click.option("--out", "out_dir", type=str, callback=_out_folder,
+    f = click.option("--out", "out_dir", type=str, callback=out_folder,
                      default=None, help="Output folder (default: out/<config name>).")(f)
     f = click.argument("config", type=click.Path(path_type=Path))(f)
     return f
-
-
-def _out_folder(ctx, param, value: str | None) -> Path | None:
-    """--out as a Path; an empty value (a shell variable that was not set) is refused instead
-    of meaning the current folder."""
-    if value is None:
-        return None
-    if not value.strip():
-        raise BadInput("is empty; give a folder (`--out .` for the current one)", key="--out")
-    p = Path(value)
-    if p.exists() and not p.is_dir():
-        raise BadInput("is a file, not a folder", file=p, key="--out")
-    return p
 
 
 def _load(config: Path, overrides, out_dir: Path | None):

@@ -6,10 +6,12 @@ from pathlib import Path
 
 import click
 
+from sgpipe.cli_args import out_folder
+
 
 @click.command()
 @click.argument("run_dir", type=click.Path(path_type=Path))
-@click.option("--out", "out_dir", type=click.Path(path_type=Path), default=None,
+@click.option("--out", "out_dir", type=str, callback=out_folder, default=None,
               help="Export folder (default: RUN_DIR/export); replaced as a whole.")
 @click.option("--format", "fmt", default="rgba16f", show_default=True, metavar="FORMAT",
               help="KTX2 texel format: rgba16f (VK_FORMAT_R16G16B16A16_SFLOAT) or b10g11r11 "

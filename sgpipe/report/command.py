@@ -6,10 +6,12 @@ from pathlib import Path
 
 import click
 
+from sgpipe.cli_args import out_folder
+
 
 @click.command()
 @click.argument("run_dir", type=click.Path(path_type=Path))
-@click.option("--out", "out_dir", type=click.Path(path_type=Path), default=None,
+@click.option("--out", "out_dir", type=str, callback=out_folder, default=None,
               help="Report folder (default: RUN_DIR/report); index.html and assets/ go there.")
 def report(run_dir, out_dir):
     """Write a self-contained static HTML report of RUN_DIR (the --out folder of `sgpipe run`):

@@ -216,6 +216,8 @@ def test_empty_out_is_refused_not_the_current_folder(tmp_path):
     work = tmp_path / "cwd"
     work.mkdir()
     assert_bad_input(sgpipe("fit", p, "--out", "", cwd=work), "--out: is empty")
+    for cmd in ("export", "report"):
+        assert_bad_input(sgpipe(cmd, tmp_path, "--out", "", cwd=work), "--out: is empty")
     assert list(work.iterdir()) == []
     f = tmp_path / "file.txt"
     f.write_text("x")
