@@ -145,6 +145,11 @@ def _run(cfg, run: StageRun, tmp: Path, geoms, materials) -> None:
     for k, (g, mat) in enumerate(zip(geoms, materials)):
         objects[g.name] = _write_object(run, cfg, g, mat,
                                         [r for r, o in zip(results, owner) if o == k])
+    for name, o in objects.items():
+        parts = [f"{c} {v['mean']:.3f} ({v['vertices']})"
+                 for c, v in o["fit_rel_err_by_class"].items() if v["vertices"]]
+        log(f"[transport] {name}: mean relative fit error by visibility: "
+            f"{', '.join(parts) or 'no fitted vertex'}")
     run.report.update(vertices=n_vert, gaussians_fitted=fitted, objects=objects)
     run.write_json(artifacts.REPORT, {"objects": objects})
 
@@ -173,10 +178,30 @@ def _write_object(run, cfg, g, mat, results) -> dict:
         "fit_rel_err_mean": float(err.mean()), "fit_rel_err_p95": float(np.percentile(err, 95)),
         "lm_iterations_mean": float(iters.mean()),
         "visible_fraction_mean": float(vis.mean()),
+        "fit_rel_err_by_class": error_by_class(err, vis, np.any(w != 0, axis=(1, 2, 3))),
         # |indirect| / |shadowed| of the SH transfer (L2 over vertices, coefficients, RGB)
         "sh_indirect_over_shadowed": float(np.linalg.norm(sh_ind)
                                            / max(np.sqrt(3) * np.linalg.norm(sh), 1e-30)),
     }
+
+
+#: Vertex classes of the fit-error report by the visible fraction of the vertex's upper
+#: hemisphere: open (only the horizon cuts its lobes), clipped (a rim or a neighbour cuts part
+#: of its sky), occluded (most of it hidden).
+CLASSES = (("open", 0.98, 1.01), ("clipped", 0.5, 0.98), ("occluded", -0.01, 0.5))
+
+
+def error_by_class(err, visible, fitted) -> dict:
+    """{class: {vertices, mean, p95}} of the fitted vertices' relative fit error, classed by
+    visible fraction (CLASSES): where one Gaussian per view is not enough shows here."""
+    out = {}
+    for name, lo, hi in CLASSES:
+        sel = fitted & (visible >= lo) & (visible < hi)
+        e = err[sel]
+        out[name] = {"vertices": int(sel.sum()),
+                     "mean": float(e.mean()) if e.size else None,
+                     "p95": float(np.percentile(e, 95)) if e.size else None}
+    return out
 
 
 def _compact_error(mu, sigma, w, lo, hi, t) -> float:

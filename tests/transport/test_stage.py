@@ -65,6 +65,16 @@ def test_artifacts_report_and_determinism(tmp_path):
         assert o["fit_rel_err_mean"] < 0.6
     # the floor under the ball sees less of the sky than the ball's top
     assert rep["floor"]["visible_fraction_mean"] < 1.0
+    # the fit error per visibility class covers every fitted vertex; the floor has vertices
+    # whose sky the ball clips, the ball's top has open ones
+    for obj, nv in (("ball", 12), ("floor", 16)):
+        classes = rep[obj]["fit_rel_err_by_class"]
+        assert set(classes) == {"open", "clipped", "occluded"}
+        assert 0 < sum(c["vertices"] for c in classes.values()) <= nv
+        for c in classes.values():
+            assert (c["mean"] is None) == (c["vertices"] == 0)
+    assert rep["floor"]["fit_rel_err_by_class"]["clipped"]["vertices"] > 0
+    assert rep["ball"]["fit_rel_err_by_class"]["open"]["vertices"] > 0
     # a second run is skipped
     run = stage.run(load_config(make(tmp_path, workers=1)), out1)
     assert run.skipped
