@@ -49,13 +49,14 @@ def _check_tree(node, path: Path) -> None:
         open_.add(id(n))
         total = 1
         if isinstance(n, yaml.MappingNode):
-            seen: dict[Any, int] = {}
+            seen: dict[tuple, int] = {}
             for k, v in n.value:
                 if isinstance(k, yaml.ScalarNode):
-                    if k.value in seen:
+                    ident = (k.tag, k.value)         # 1 and '1' are different keys
+                    if ident in seen:
                         raise BadInput(f"duplicate key {k.value!r} (first on line "
-                                       f"{seen[k.value]})", file=path, line=k.start_mark.line + 1)
-                    seen[k.value] = k.start_mark.line + 1
+                                       f"{seen[ident]})", file=path, line=k.start_mark.line + 1)
+                    seen[ident] = k.start_mark.line + 1
                 total += size(k) + size(v)
                 if total > MAX_EXPANDED_NODES:
                     break
