@@ -18,7 +18,8 @@ import numpy as np
 from sgpipe.artifacts import render as art
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
-from sgpipe.stages.base import StageRun, log, upstream_difference
+from sgpipe.stages.base import StageRun, log
+from sgpipe.stages.upstream import upstream_difference
 
 #: The stages render reads: (stage, the command that makes it, the config sections its
 #: artifacts are computed from — the same its own cache key holds).
