@@ -29,8 +29,9 @@ from sgpipe.experiments.corpus import report
 from sgpipe.experiments.corpus.scenes import SLOTS, scenes
 
 #: the seed the corpus is reported on; TUNING_SEEDS are those method changes were tried on
-REPORT_SEED = 7
-TUNING_SEEDS = (1,)
+#: or motivated by (docs/results/fidelity_seed7.md keeps seed 7's matrix, marked as such)
+REPORT_SEED = 11
+TUNING_SEEDS = (1, 7)
 GOAL_DB = 35.0
 GOAL_METHODS = ("sg", "gmm")
 
@@ -169,6 +170,7 @@ def main(argv: list[str] | None = None) -> int:
     (a.out / "fidelity.json").write_text(json.dumps({"meta": meta, "rows": rows}, indent=1))
     results = a.results or a.out / "fidelity.md"
     results.parent.mkdir(parents=True, exist_ok=True)
+    meta["results"] = results.as_posix()
     results.write_text(report.markdown(rows, meta, goal_misses(rows)))
     misses = goal_misses(rows)
     print(f"fidelity: {len(rows)} scenes in {meta['seconds'] / 60:.1f} min -> {results}")

@@ -48,3 +48,12 @@ def test_worst_cells_refusals_and_failures():
     assert "not a seed any method was tuned on" in md
     tuned = markdown(ROWS, dict(META, seeds=[1]), [])
     assert "**a tuning seed**" in tuned and "**met**" in tuned
+
+
+def test_regenerate_line_names_the_report_file():
+    """The report seed's file is part of `make figures`; another seed's names its own file."""
+    main = markdown(ROWS, META, [])
+    assert "--results docs/results/fidelity.md` (part of `make figures`;" in main
+    other = markdown(ROWS, dict(META, results="docs/results/fidelity_seed7.md"), [])
+    assert "--results docs/results/fidelity_seed7.md` (" in other
+    assert "make figures" not in other.split("Regenerate:")[1].split("\n")[0]

@@ -39,6 +39,10 @@ def _cell(r: dict, m: str) -> str:
     return f"{v['surface_display_psnr_db']:.1f}{star}"
 
 
+#: the report `make figures` writes (the report seed); other seeds' reports name their own file
+MAIN_RESULTS = "docs/results/fidelity.md"
+
+
 def _scene(r: dict) -> str:
     return f"s{r['seed']} `{r['key']}`"
 
@@ -67,8 +71,10 @@ def markdown(rows: list[dict], meta: dict, misses: list[str]) -> str:
         "clamps, where display PSNR sees no error.",
         "",
         "Regenerate: `python -m sgpipe.experiments.fidelity --out out/figures/fidelity "
-        f"--seed {seeds} --results docs/results/fidelity.md` (part of `make figures`; "
-        f"{meta['seconds'] / 60:.0f} min on 2 cores).",
+        f"--seed {seeds} --results {meta.get('results', MAIN_RESULTS)}` ("
+        + ("part of `make figures`; " if meta.get("results", MAIN_RESULTS) == MAIN_RESULTS
+           else "")
+        + f"{meta['seconds'] / 60:.0f} min on 2 cores).",
         "",
         "## Worst cell per method",
         "",
