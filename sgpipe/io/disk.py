@@ -34,7 +34,7 @@ def disk_full_line(e: OSError) -> str:
 
 
 def disk_full_message(path: str | os.PathLike | None, need: int | None = None) -> str:
-    """'no space left on device (… MB free on …[, … MB needed])' for `path`'s file system."""
+    """'no space left on device (… MB free there[, … MB needed])' for `path`'s file system."""
     where = Path(path) if path else Path.cwd()
     probe = where
     while not probe.exists() and probe != probe.parent:
