@@ -47,6 +47,19 @@ def disk_full_message(path: str | os.PathLike | None, need: int | None = None) -
     return f"no space left on device ({free}{extra})"
 
 
+def raise_if_disk_full(path: str | os.PathLike, nbytes: int) -> None:
+    """For writers whose library reports no errno (OpenImageIO): a failed write of about
+    `nbytes` (an upper bound of the file) with less free space than that beside `path` is a
+    full disk, raised as OSError(ENOSPC, path); otherwise nothing happens and the caller
+    reports its own error."""
+    try:
+        free = shutil.disk_usage(Path(path).parent).free
+    except OSError:
+        return
+    if free < nbytes + (1 << 16):
+        raise OSError(errno.ENOSPC, disk_full_message(path, nbytes), str(path))
+
+
 def allocated_memmap(path: str | os.PathLike, dtype, shape) -> None:
     """Create `path` as a zero-filled file for an np.memmap of `shape`, its blocks reserved
     now (posix_fallocate): a sparse file on a disk that fills later kills the process that
@@ -65,4 +78,5 @@ def allocated_memmap(path: str | os.PathLike, dtype, shape) -> None:
                 fh.truncate(nbytes)     # a file system without fallocate: sparse, as before
 
 
-__all__ = ["FULL", "disk_full_error", "disk_full_line", "disk_full_message", "allocated_memmap"]
+__all__ = ["FULL", "disk_full_error", "disk_full_line", "disk_full_message",
+           "raise_if_disk_full", "allocated_memmap"]

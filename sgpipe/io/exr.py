@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import errno
 import os
 from pathlib import Path
 
@@ -10,7 +9,7 @@ import numpy as np
 
 from sgpipe.errors import BadInput
 from sgpipe.io.atomic import atomic_path
-from sgpipe.io.disk import disk_full_message
+from sgpipe.io.disk import raise_if_disk_full
 
 
 def _oiio():
@@ -70,16 +69,10 @@ def write_exr(path: str | os.PathLike, image: np.ndarray, *, half: bool = False,
 
 
 def _write_failed(path: Path, why: str, nbytes: int):
-    """OpenImageIO reports no errno: a failed write with less free space than the raw pixels
-    (an upper bound of the compressed file) is a full disk, else one BadInput line."""
-    import shutil
-    try:
-        free = shutil.disk_usage(path.parent).free
-    except OSError:
-        free = None
-    if free is not None and free < nbytes + (1 << 16):
-        raise OSError(errno.ENOSPC, disk_full_message(path, nbytes), str(path))
-    raise BadInput(f"cannot write EXR: {' '.join(str(why).split())}", file=path)
+    """A failed write: a full disk (less free space than the raw pixels, an upper bound of the
+    compressed file) as OSError(ENOSPC), else one BadInput line."""
+    raise_if_disk_full(path, nbytes)
+    raise BadInput(f"cannot write EXR: {why}", file=path)
 
 
 def read_exr(path: str | os.PathLike, *, channels: tuple[int, ...] | None = None,

@@ -11,6 +11,7 @@ import numpy as np
 
 from sgpipe.errors import BadInput
 from sgpipe.io.atomic import atomic_path
+from sgpipe.io.disk import raise_if_disk_full
 from sgpipe.io.exr import oiio_error
 
 
@@ -39,9 +40,15 @@ def write_png(path: str | os.PathLike, image: np.ndarray, *, exposure: float = 0
     with atomic_path(path) as tmp:
         out = oiio.ImageOutput.create(str(tmp))
         if out is None or not out.open(str(tmp), spec):
+            raise_if_disk_full(path, img.size)
             raise OSError(f"{path}: cannot write PNG: {oiio_error(oiio)}")
-        out.write_image(np.ascontiguousarray(img.astype(np.uint8)))
-        out.close()
+        ok = out.write_image(np.ascontiguousarray(img.astype(np.uint8)))
+        ok = out.close() and ok
+        # the PNG writer reports a short write only as a pending error message, not as a
+        # False return; a truncated file must not be renamed into place
+        if not ok or out.has_error:
+            raise_if_disk_full(path, img.size)
+            raise OSError(f"{path}: cannot write PNG: {oiio_error(out)[:300]}")
     return path
 
 

@@ -96,3 +96,24 @@ def test_any_write_that_finds_the_disk_full_is_one_line(tmp_path, monkeypatch, c
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"sgpipe: error: {tmp_path / 'out'}/timings.json:")
     assert "no space left on device" in err[0] and "MB free there" in err[0]
+
+
+def test_png_that_does_not_fit_is_not_renamed_into_place(tmp_path):
+    """OpenImageIO's PNG writer reports a short write only as a pending error (write_image and
+    close return True): a 1 MB tmpfs got a truncated preview PNG under the final name."""
+    mnt = tmp_path / "mnt"
+    mnt.mkdir()
+    code = ("import numpy as np\nfrom sgpipe.io import write_png\n"
+            "rng = np.random.default_rng(0)\n"
+            f"try:\n    write_png('{mnt}/big.png', rng.random((1500, 1500, 3)))\n"
+            "except OSError as e:\n    print('errno', e.errno)\n"
+            f"write_png('{mnt}/small.png', rng.random((64, 64, 3)))\n")
+    script = (f"mount -t tmpfs -o size=1m tmpfs {mnt} || exit 99; "
+              f"{sys.executable} -c \"{code}\" > {tmp_path}/out 2>&1; "
+              f"ls -A {mnt} > {tmp_path}/left")
+    r = subprocess.run(["unshare", "--user", "--map-root-user", "--mount", "sh", "-c", script],
+                       capture_output=True, text=True, timeout=120)
+    if r.returncode == 99 or not (tmp_path / "left").exists():
+        pytest.skip(f"no private tmpfs here: {r.stderr.strip()[:200]}")
+    assert (tmp_path / "out").read_text().strip() == "errno 28"
+    assert (tmp_path / "left").read_text().split() == ["small.png"]
