@@ -62,13 +62,13 @@ class VertexProblem:
         self.normal = np.asarray(normal, float)
         self.views, _, self.nb, self.cnt = view_set()
         # per-view normalisation E_v (floored at 1 % of the mean, so views that receive almost
-        # nothing still pull their weights towards zero without amplifying round-off)
-        # a vertex whose transport float32 storage cannot hold is fitted as none (its energy
-        # would underflow and 1/E_v overflow)
-        self.negligible = negligible_transport(self.T[self.active])
+        # nothing still pull their weights towards zero without amplifying round-off); a vertex
+        # whose transport float32 storage cannot hold has energy 0 and is fitted as none (its
+        # energy would underflow and 1/E_v overflow)
         energy = np.einsum("vmc,m->v", self.T ** 2, self.omega)
         n_act = max(int(self.active.sum()), 1)
-        self.energy = 0.0 if self.negligible else float(energy[self.active].sum() / n_act)
+        self.energy = (0.0 if negligible_transport(self.T[self.active])
+                       else float(energy[self.active].sum() / n_act))
         floor = 0.01 * self.energy if self.energy > 0 else 1.0
         self.av = opts.alpha / np.maximum(energy, floor)
         k = opts.gaussians

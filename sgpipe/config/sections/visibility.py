@@ -13,8 +13,8 @@ class VisibilitySection:
     """Visibility precomputation for the objects of `scene:` (Wang09 §5)."""
 
     trace_resolution: int = doc("Concentric-square trace resolution per vertex "
-                                "(trace_resolution² occlusion rays per vertex; at most 2048: 4·10⁶ rays per vertex).",
-                                512, ge=8, le=2048)
+                                "(trace_resolution² occlusion rays per vertex; at most 2048: "
+                                "4·10⁶ rays per vertex).", 512, ge=8, le=2048)
     resolution: int = doc("Downsampled visibility/SSDF resolution (must divide "
                           "trace_resolution; at most 512).", 128, ge=4, le=512)
     sampling: Literal["full", "adaptive"] = doc(
