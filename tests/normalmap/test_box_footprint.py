@@ -174,8 +174,9 @@ def test_box_footprint_is_closer_to_the_box_average_off_the_texel_grid(texels, b
 
 
 def test_box_level0_shades_a_grid_of_bilinear_taps_per_method():
-    """Footprint of 1.3 × 0.7 level-0 texels (rotated 30°): a 3 × 2 grid of taps at the centres
-    of the parallelogram's cells, each tap its own lobe — every method the material's lobe
+    """Footprint of 1.3 × 0.7 level-0 texels (rotated 30°): a grid of taps at the centres of the
+    parallelogram's cells, NM_L0_TAPS_PER_TEXEL (6) per texel along each side up to
+    NM_BOX_L0_TAPS (4), each tap its own lobe — every method the material's lobe
     about the unit bilinear normal (toksvig and engine_bake at r = 1: the tap's shorter
     bilinear mean is not roughness) — and its own diffuse max(0, n·i), averaged."""
     from tests.normalmap.helpers import tilted_normals
@@ -192,7 +193,7 @@ def test_box_level0_shades_a_grid_of_bilinear_taps_per_method():
     duv = np.tile(np.concatenate([ex, ey]), (n, 1))
     views = unit(np.tile([0.1, -0.05, 1.0], (n, 1)) + rng.normal(0, 0.2, (n, 3)))
     fr = flat_frame(views, uv, duv)
-    nx, ny = 3, 2                              # ⌈2·1.3⌉, ⌈2·0.7⌉
+    nx, ny = min(math.ceil(6 * 1.3), 4), min(math.ceil(6 * 0.7), 4)     # 4 × 4
     ref = {k: np.zeros(n) for k in ("vmf", "normals_mip", "toksvig", "engine_bake")}
     norm0 = (s + 2) / (8 * math.pi)
     for p in range(n):

@@ -30,9 +30,9 @@
  *           (l ≤ 2) for the diffuse term.
  * Environment: specular per lobe (eq 24–26 with an SG in place of SH): the lobe's effective
  * D about μ as an SG in h (Blinn–Phong λ = s′; Beckmann / Cook–Torrance λ = 2/α′²), warped to
- * i-space (sg_warp: reflect o about μ, λ/(4|o·μ|)), times the BRDF's other factors and the
- * cosine at the warped axis, through the accurate Γ_L pyramid (gamma_lookup_acc, the `sg`
- * method's). nm_sh's specular lobe for the environment is the engine_bake lobe (n̄, κ(|n̄|)):
+ * i-space about the reflected view with its anisotropy (three sub-lobes, nm_env.h), times the
+ * BRDF's other factors at each sub-lobe's axis, through the accurate Γ_L pyramid
+ * (gamma_lookup_acc, the `sg` method's). nm_sh's specular lobe for the environment is the engine_bake lobe (n̄, κ(|n̄|)):
  * general SH do not rotate cheaply (Han07 footnote 9). Diffuse: the `sg` method's SG-light sum
  * about n̄ (diffuse_env_sg), nm_sh: Σ_{l ≤ 2} Â_l γ_lm L_lm with γ rotated to world.
  * Lights are delta lights of the records' intensity (as the reference's default).
@@ -60,6 +60,9 @@
 #define NM_FOOT_SLOT 14     /* nm_brdf: render.normalmap_footprint (0 trilinear, 1 box) */
 #define NM_BOX_TEXELS 9     /* box footprint: texels of its level it may overlap */
 #define NM_BOX_L0_TAPS 4    /* box footprint at level 0: bilinear-normal taps per edge */
+#ifndef NM_L0_TAPS_PER_TEXEL
+#define NM_L0_TAPS_PER_TEXEL 6.0f
+#endif
 
 /* Bilinear fetch of slot `slot` (of `stride` per texel) of a level at (off, side m): repeat
  * addressing, row 0 = v = 1, texel centres at half-integers (vmf.bilinear, tex_bilinear). */
@@ -206,94 +209,7 @@ inline float3 nm_spec(__global const float *m, float3 ks, int model, float3 n, f
     return ks * mf_fresnel(m, oh) * (G * D / co);
 }
 
-/* The material's Fresnel averaged over a reflected lobe: o·h = c + uZ (Z ~ N(0, 1), the h-lobe's
- * offset towards o; u = sin θ_o / √λ_h), counted where n·i > 0 (Z > −t) and weighted by the
- * Jacobian's o·h, by a 9-point midpoint rule over Z ∈ [max(−t, −4), 4]. At a grazing view the
- * axis value F(c) is near F(0) = 1 for Schlick's (1 − o·h)⁵ while most of the lobe reflects at
- * a larger o·h. */
-inline float3 nm_fresnel_lobe(__global const float *m, float c, float u, float t) {
-    float z0 = fmax(-t, -4.0f), dz = (4.0f - z0) / 9.0f;
-    float3 num = (float3)(0.0f);
-    float den = 0.0f;
-    for (int k = 0; k < 9; ++k) {
-        float z = z0 + ((float)k + 0.5f) * dz;
-        float x = clamp(c + u * z, 0.0f, 1.0f);
-        float w = exp(-0.5f * z * z) * x;
-        num += w * mf_fresnel(m, x);
-        den += w;
-    }
-    return den > 0.0f ? num / den : mf_fresnel(m, c);
-}
-
-/* The same lobe under the environment (eq 24–26 with SG): D about n as an SG in h, warped to
- * i-space about the reflected view, times the other factors and the cosine at the warped axis,
- * through Γ_L (the `sg` method's accurate pyramid); SSDF visibility from vis at the axis. */
-inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 n, float3 o,
-                          float e, float norm, float a, float amp, float3 T, float3 B,
-                          float3 N, const Vis *vis,
-                          __global const float4 *pyr, __global const int *pyr_off,
-                          __global const int *pyr_res, __global const float *pyr_lam,
-                          int pyr_n, float pyr_log_ratio, float3 env_mean,
-                          __global const float4 *pyr_pts, int n_pts,
-                          __global const float4 *pyr_raw, int raw_n, float env_scale) {
-    if (model == NM_LAMBERT) return (float3)(0.0f);
-    float3 ol = nm_lift(o, n, 0.01f);
-    float lam_h, amp_h;
-    if (model == NM_BLINN) {          /* (n·h)^e ≈ e/(e+1)·e^{e(n·h − 1)}: the same integral */
-        lam_h = e;
-        amp_h = norm * e / (e + 1.0f);
-    } else {                          /* e^{−tan²θ/a²}, e^{−θ²/a²} ≈ e^{(2/a²)(n·h − 1)} */
-        lam_h = 2.0f / (a * a);
-        /* Cook–Torrance: the SG's mass πa² exceeds the θ-Gaussian's πa²(1 − a²/6) */
-        amp_h = model == NM_BECKMANN ? 1.0f / (4.0f * SG_PI * a * a)
-                                     : amp * MF_INV_PI * (1.0f - a * a / 6.0f);
-    }
-    SG w = sg_warp(sg_make(n, lam_h, (float3)(amp_h)), ol);
-    /* a grazing view reflects into directions above n's horizon (i = 2(o·h)h − o with
-     * n·i > 0): the lobe's axis is kept one σ = 1/√λ above it */
-    w.p = normalize(nm_lift(w.p, n, fmin(rsqrt(w.lam), 0.5f)));
-    float ci = dot(n, w.p);
-    if (ci <= 0.0f) return (float3)(0.0f);
-    float3 f;
-    if (model == NM_BLINN) {
-        /* ∫ (n·h)^e (n·i) 4(o·h) dω_h: the SG's integral holds 4(o·n); the mean of
-         * (n·i)(o·h) over the h-lobe (tangential variance 1/e per axis), to second order in
-         * the offset δ of h from n, is c² + (2 − 5c²)/e, c = o·n (a grazing view's product
-         * grows with δ: the first-order terms cancel, the square does not) */
-        float co = fmax(dot(n, ol), 1e-3f);
-        f = ks * (fmax(co * co + (2.0f - 5.0f * co * co) / e, 0.0f) / co);
-    } else {
-        float co = dot(n, ol);
-        float3 h = normalize(ol + w.p);
-        float ch = dot(n, h), oh = dot(ol, h);
-        /* the light-side masking over the lobe: its directions rise ~a above the axis at a
-         * grazing view (the axis value alone: −53 % at 87°) */
-        float cg = sqrt(ci * ci + 0.5f * a * a);
-        /* the Jacobian's o·h over the h-lobe (offset δ ~ N(0, 1/λ) towards o), counted where
-         * n·i > 0 (o·h > c/2): E = cΦ(t) + sσφ(t), t = c/(2sσ), instead of c at the axis */
-        float sg = rsqrt(lam_h), so = sqrt(fmax(1.0f - co * co, 1e-6f));
-        float t = co / (2.0f * so * sg);
-        float u = so * sg;
-        float eoh = co * 0.5f * erfc(-0.70710678f * t) + u * 0.39894228f * exp(-0.5f * t * t);
-        float g2;
-        if (model == NM_BECKMANN) {
-            g2 = nm_mf_g(model, cg, co, ch, oh, a) * eoh;
-        } else {   /* V-cavity: G·(o·h) = min(o·h, 2c) (view side), its mean over the lobe */
-            float t2 = co / u;
-            g2 = co * (0.5f * erfc(-0.70710678f * t2) - 0.5f * erfc(0.70710678f * t))
-                 + u * 0.39894228f * (exp(-0.5f * t * t) - exp(-0.5f * t2 * t2))
-                 + co * erfc(0.70710678f * t2);
-        }
-        f = ks * nm_fresnel_lobe(m, co, u, t) * (g2 / (co * co));
-    }
-    w.mu *= f;
-    float3 pl = to_local(w.p, T, B, N);
-    w = sg_times_visibility(w, vis_theta(vis, pl));
-    return w.mu * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam, pyr_n,
-                                                pyr_log_ratio, env_mean, pyr_raw, raw_n, w.p,
-                                                w.lam)
-                               + gamma_points(pyr_pts, n_pts, w.p, w.lam));
-}
+#include "nm_env.h"
 
 /* Real SH basis (sgpipe.core.sh: orthonormal, no Condon–Shortley phase, k = l(l + 1) + m) of a
  * unit direction for l ≤ lmax into y[(lmax + 1)²]. */

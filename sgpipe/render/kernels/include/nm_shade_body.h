@@ -66,8 +66,10 @@
         else l0 = l1 = info.x + lev;
         if (!box) {
         } else if (lev == 0) {          /* bilinear normals on an nx × ny grid over the parallelogram */
-            nx = clamp((int)ceil(2.0f * length(duv.xy) * side - 1e-3f), 1, NM_BOX_L0_TAPS);
-            int ny = clamp((int)ceil(2.0f * length(duv.zw) * side - 1e-3f), 1, NM_BOX_L0_TAPS);
+            nx = clamp((int)ceil(NM_L0_TAPS_PER_TEXEL * length(duv.xy) * side - 1e-3f), 1,
+                       NM_BOX_L0_TAPS);
+            int ny = clamp((int)ceil(NM_L0_TAPS_PER_TEXEL * length(duv.zw) * side - 1e-3f), 1,
+                           NM_BOX_L0_TAPS);
             ntap = nx * ny;
             du = duv.xy / (float)nx;
             dv = duv.zw / (float)ny;
@@ -345,15 +347,27 @@
             float4 q = quat_from_z(normalize(to_local(nbar, T, B, N)));
             float4 qi = quat_conj(q);
             float3 op = lift(normalize(quat_rotate(qi, lift(to_local(o, T, B, N), 0.01f))), 0.01f);
-            acc += diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, &vis);
+            float3 ed = diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale,
+                                       &vis);
+#if NM_FILTER == NM_VMF
+            /* linear in the NDF (eq 5), as the lights' diffuse: the facets' mean cosine is
+             * n̄·i, |n̄| < 1 where they spread (level 0's taps count as unit normals) */
+            ed *= (at0 ? 1.0f - f : 0.0f) + length(mean1);
+#endif
+            acc += ed;
         }
     }
     if (env_on) {
         for (int j = 0; j < nlob; ++j)
             acc += lp[j].x * nm_spec_env(m, ks, model, ax[j].xyz, o, lp[j].y, lp[j].z, lp[j].w,
                                          ax[j].w, T, B, N, &vis, pyr, pyr_off, pyr_res, pyr_lam,
-                                         pyr_n, pyr_log_ratio, env_mean.xyz, pyr_pts, n_pts,
-                                         pyr_raw, raw_n, env_scale);
+                                         pyr_n, pyr_log_ratio, env_mean.xyz, pyr_pts,
+                                         NM_EXACT_POINTS ? 0 : n_pts, pyr_raw, raw_n, env_scale);
+        /* the point set (a sun) as directional lights: every lobe's exact BRDF at each point,
+         * shadowed at the point's own direction (nm_points) */
+        if (NM_EXACT_POINTS)
+            acc += env_scale * nm_points(m, ks, model, ax, lp, nlob, o, T, B, N, &vis,
+                                         pyr_pts, n_pts);
     }
 #if NM_FILTER == NM_SH
     float yb[4 * NM_MAX_SH4];
