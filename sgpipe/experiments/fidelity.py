@@ -136,6 +136,28 @@ def goal_misses(rows: list[dict]) -> list[str]:
     return out
 
 
+def merge_rows(old_rows: list[dict], new_rows: list[dict]) -> list[dict]:
+    """The old rows in their order, each replaced by the new row of the same seed and key."""
+    fresh = {(r["seed"], r["key"]): r for r in new_rows}
+    return [fresh.get((r["seed"], r["key"]), r) for r in old_rows]
+
+
+def _previous_rows(a) -> tuple[list, dict] | str:
+    """The rows and meta of <out>/fidelity.json for --update, or why they cannot be updated."""
+    path = a.out / "fidelity.json"
+    if not a.scenes:
+        return "--update needs --scenes (the slots to re-measure)"
+    try:
+        old = json.loads(path.read_text())
+    except (OSError, ValueError) as e:
+        return f"--update: {path}: {e}"
+    m = old.get("meta", {})
+    for key, want in (("seeds", a.seed), ("size", a.size), ("spp", a.spp)):
+        if m.get(key) != want:
+            return f"--update: {path}: meta {key} is {m.get(key)!r}, this run's is {want!r}"
+    return old["rows"], m
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m sgpipe.experiments.fidelity",
                                  description=__doc__.splitlines()[0])
@@ -149,6 +171,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="48², 64 spp: a smoke run")
     ap.add_argument("--results", type=Path, default=None,
                     help="Markdown report (default <out>/fidelity.md)")
+    ap.add_argument("--update", action="store_true",
+                    help="re-measure only --scenes and replace their rows in <out>/fidelity.json "
+                         "(same seeds, size and spp); the report is rewritten from all rows")
     a = ap.parse_args(argv)
     if a.list:
         print("\n".join(s.key for s in SLOTS))
@@ -161,12 +186,22 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if a.quick:
         a.size, a.spp = 48, 64
+    previous = _previous_rows(a) if a.update else None
+    if isinstance(previous, str):
+        print(f"fidelity: error: {previous}", file=sys.stderr)
+        return 2
     a.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     rows = run_corpus(a.out, a.seed, size=a.size, spp=a.spp, only=a.scenes)
     meta = {"seeds": a.seed, "tuning_seeds": list(TUNING_SEEDS), "size": a.size, "spp": a.spp,
             "seconds": time.perf_counter() - t0, "goal_db": GOAL_DB,
             "goal_methods": list(GOAL_METHODS)}
+    if previous is not None:
+        old_rows, old_meta = previous
+        rows = merge_rows(old_rows, rows)
+        # "seconds" stays the whole corpus's time (the report's regenerate line)
+        meta.update(seconds=old_meta["seconds"], updated_scenes=sorted(a.scenes),
+                    update_seconds=meta["seconds"])
     (a.out / "fidelity.json").write_text(json.dumps({"meta": meta, "rows": rows}, indent=1))
     results = a.results or a.out / "fidelity.md"
     results.parent.mkdir(parents=True, exist_ok=True)

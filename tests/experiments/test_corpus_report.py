@@ -57,3 +57,31 @@ def test_regenerate_line_names_the_report_file():
     other = markdown(ROWS, dict(META, results="docs/results/fidelity_seed7.md"), [])
     assert "--results docs/results/fidelity_seed7.md` (" in other
     assert "make figures" not in other.split("Regenerate:")[1].split("\n")[0]
+
+
+def test_update_replaces_the_re_measured_rows_in_place():
+    """`--update`: the old rows keep their order; a re-measured (seed, key) replaces its row."""
+    from sgpipe.experiments.fidelity import merge_rows
+    new_c = _row("c", {"sg": 21.0, "vmf": 35.0}, normal_map="grooves")
+    merged = merge_rows(ROWS, [new_c])
+    assert [r["key"] for r in merged] == ["a", "b", "c"]
+    assert merged[2] is new_c and merged[:2] == ROWS[:2]
+    other_seed = dict(new_c, seed=11)
+    assert merge_rows(ROWS, [other_seed]) == ROWS
+
+
+def test_update_refuses_without_scenes_or_with_another_run(tmp_path, capsys):
+    """One line and exit status 2, before anything is measured: no --scenes, no previous
+    fidelity.json, or one of other seeds / size / spp."""
+    import json
+
+    from sgpipe.experiments.fidelity import main
+    assert main(["--out", str(tmp_path), "--update", "--seed", "7"]) == 2
+    assert "--update needs --scenes" in capsys.readouterr().err
+    key = "plane-lamps-ggx"
+    assert main(["--out", str(tmp_path), "--update", "--seed", "7", "--scenes", key]) == 2
+    assert "fidelity.json" in capsys.readouterr().err
+    (tmp_path / "fidelity.json").write_text(json.dumps({"meta": META, "rows": ROWS}))
+    assert main(["--out", str(tmp_path), "--update", "--seed", "11", "--scenes", key]) == 2
+    err = capsys.readouterr().err
+    assert "meta seeds is [7], this run's is [11]" in err and len(err.splitlines()) == 1
