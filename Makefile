@@ -65,9 +65,9 @@ validate: setup $(VALIDATE_STAMP)
 ## and the fidelity corpus (docs/results/fidelity.md)
 figures: setup
 	$(PY) -m sgpipe.experiments.figures --out $(OUT)/figures
+	$(PY) -m sgpipe.experiments.fidelity --out $(OUT)/figures/fidelity --results docs/results/fidelity.md
 	$(PY) -m sgpipe.experiments.han07 --out $(OUT)/figures/han07
 	$(PY) -m sgpipe.experiments.green06 --out $(OUT)/figures/green06 --results docs/results/green06.md
-	$(PY) -m sgpipe.experiments.fidelity --out $(OUT)/figures/fidelity --results docs/results/fidelity.md
 
 ## regenerate data_samples/ (deterministic)
 samples: $(STAMP)

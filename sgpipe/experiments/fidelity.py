@@ -13,7 +13,9 @@ Each scene runs through the real stages (fit → precompute → render, 3×3 sup
 compared with a two-seed reference (box pixel filter): surface and whole-frame display PSNR
 corrected for the reference's noise, LDR-ꟻLIP and linear relMSE. Writes <out>/fidelity.json,
 the images (EXR + PNG) under <out>/scenes/<seed>/<key>/, and the Markdown matrix (`--results`,
-default <out>/fidelity.md) with the worst cell per method on top.
+default <out>/fidelity.md) with the worst cell per method on top and its numbers beside it
+(the same name, .json; docs/results/han07.md reads the report seed's). `--update --scenes …`
+re-measures those slots only and rewrites the report from all rows.
 """
 
 from __future__ import annotations
@@ -207,6 +209,8 @@ def main(argv: list[str] | None = None) -> int:
     results.parent.mkdir(parents=True, exist_ok=True)
     meta["results"] = results.as_posix()
     results.write_text(report.markdown(rows, meta, goal_misses(rows)))
+    # the numbers beside the page (docs/results/han07.md reads the report seed's)
+    results.with_suffix(".json").write_text(json.dumps({"meta": meta, "rows": rows}, indent=1))
     misses = goal_misses(rows)
     print(f"fidelity: {len(rows)} scenes in {meta['seconds'] / 60:.1f} min -> {results}")
     print(f"goal ≥ {GOAL_DB:.0f} dB surface for {' and '.join(GOAL_METHODS)} without normal "
