@@ -7,7 +7,12 @@ PSNR corrected for the reference's noise:
   below gmm's floor;
 * `plane-lamps-nm_beckmann-vgrooves4x` (v-grooves minified 4× on a plane under lamps): vmf,
   the Han07 filtered method; `sg`, which shades the unfiltered map, must fall below vmf's
-  floor.
+  floor;
+* `nm_sphere-lamps-nm_beckmann-bumps4x` (a bumpy UV sphere under lamps: grazing lobes at the
+  silhouette): vmf (28.3 dB when each lobe's reflection was one isotropic SG);
+* `nm_sphere-sky-nm_blinn_phong-vgrooves16x` (v-grooves minified 16× on a UV sphere under a sky
+  with a sun): vmf (28.4 dB with the sun through each lobe's SG); `sg` of the unfiltered map
+  below vmf's floor.
 
 Each floor sits below the raw (uncorrected) value measured at these settings and at least
 NOISE_MARGIN_DB under the reference's noise floor."""
@@ -34,6 +39,10 @@ LAMPS_SG_FLOOR_DB = 41.0
 LAMPS_GMM_FLOOR_DB = 34.0
 # measured vmf 41.0 dB (raw 36.8), sg of the unfiltered map 27.0; noise floor 39.0 dB
 VGROOVES_VMF_FLOOR_DB = 35.5
+# measured vmf 35.7 dB (raw 35.0), noise floor 43.7 dB
+SPHERE_LAMPS_VMF_FLOOR_DB = 34.0
+# measured vmf 31.9 dB (raw 31.2), sg of the unfiltered map 25.0; noise floor 39.0 dB
+SPHERE_SKY_VMF_FLOOR_DB = 30.5
 
 
 def _scene(key: str, tmp: Path) -> dict:
@@ -79,3 +88,16 @@ def test_vgrooves_vmf_floor_and_unfiltered_sg_below_it(tmp_path):
     r = measure(cfg, ("vmf", "sg"), spp=SPP, out=tmp_path / "run", quiet=True)
     _holds(r, "vmf", VGROOVES_VMF_FLOOR_DB)
     assert _cell(r, "sg")["surface_display_psnr_db"] < VGROOVES_VMF_FLOOR_DB
+
+
+def test_sphere_lamps_vmf_floor(tmp_path):
+    cfg = _scene("nm_sphere-lamps-nm_beckmann-bumps4x", tmp_path)
+    r = measure(cfg, ("vmf",), spp=SPP, out=tmp_path / "run", quiet=True)
+    _holds(r, "vmf", SPHERE_LAMPS_VMF_FLOOR_DB)
+
+
+def test_sphere_sky_vmf_floor_and_unfiltered_sg_below_it(tmp_path):
+    cfg = _scene("nm_sphere-sky-nm_blinn_phong-vgrooves16x", tmp_path)
+    r = measure(cfg, ("vmf", "sg"), spp=SPP, out=tmp_path / "run", quiet=True)
+    _holds(r, "vmf", SPHERE_SKY_VMF_FLOOR_DB)
+    assert _cell(r, "sg")["surface_display_psnr_db"] < SPHERE_SKY_VMF_FLOOR_DB
