@@ -153,7 +153,9 @@ inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 
     float le = length(ex);
     ex = le > 1e-7f ? ex / le : (float3)(1.0f, 0.0f, 0.0f);
     float3 ea = normalize(cross(w.p, ex));  /* in the plane of incidence, ⊥ p */
-    float ang = 1.7320508f * sig;
+    /* a broad lobe's sub-lobes at ±√3σ_s would leave the region where a Gaussian on the
+     * sphere holds its shape (toksvig's widened lobes at grazing views): ≤ 0.5 rad */
+    float ang = fmin(1.7320508f * sig, 0.5f);
     float ca = cos(ang), sa = sin(ang), sx = rsqrt(lam_x);
     float3 pk[3];
     float wk[3], tot = 0.0f;
