@@ -26,7 +26,8 @@ from sgpipe.stages.upstream import upstream_difference
 UPSTREAM = (("fit", "fit", ("fit",)), ("envmap", "precompute", ("envmap",)),
             ("visibility", "precompute", ("visibility", "scene")),
             ("transport", "precompute", ("transport", "scene", "fit.materials")),
-            ("normalmap", "precompute", ("normalmap", "scene")))
+            ("normalmap", "precompute", ("normalmap", "scene.objects.*.name",
+                                         "scene.objects.*.normal_map")))
 
 
 def _inputs(cfg, out_dir: Path) -> list[Path]:

@@ -13,7 +13,7 @@ from sgpipe.stages.base import resolved_config
 
 def upstream_difference(cfg, out_dir: Path, stage: str, sections: tuple[str, ...]) -> str | None:
     """Where this config differs from the one OUT/<stage> was made with, in the `sections`
-    (dotted paths) that stage computes from: 'KEY: OLD -> NEW' for the first difference,
+    (dotted paths; `*` takes every element of a list) that stage computes from: 'KEY: OLD -> NEW' for the first difference,
     None when they agree (or the folder records no config)."""
     path = Path(out_dir) / stage / "config.resolved.yaml"
     try:
@@ -25,7 +25,11 @@ def upstream_difference(cfg, out_dir: Path, stage: str, sections: tuple[str, ...
         return None
 
     def at(d, dotted):
-        for part in dotted.split("."):
+        parts = dotted.split(".")
+        for k, part in enumerate(parts):
+            if part == "*":               # every element of a list
+                rest = ".".join(parts[k + 1:])
+                return [at(x, rest) if rest else x for x in d] if isinstance(d, list) else None
             d = d.get(part) if isinstance(d, dict) else None
         return d
 
@@ -46,6 +50,11 @@ def upstream_difference(cfg, out_dir: Path, stage: str, sections: tuple[str, ...
 
     for sec in sections:
         got = first(at(old, sec), at(new, sec), sec)
+        if got and "*" in sec:        # 'a.*.b.3: …' reads 'a.3.b: …'
+            head, _, rest = got.partition(": ")
+            idx, _, tail = head[len(sec) + 1:].partition(".")
+            if idx.isdigit():
+                got = sec.replace("*", idx) + (f".{tail}" if tail else "") + ": " + rest
         if got:
             return got
     return None
