@@ -362,7 +362,11 @@ def main(argv: list[str] | None = None) -> int:
         log(f"[han07] target {'MET' if t['met'] else 'NOT MET'}: {t['name']} — {t['subject']}: "
             f"{t['value']}")
     log(f"[han07] wrote {a.results} in {time.perf_counter() - t0:.0f} s")
-    return 0
+    failed = sum("error" in v for rows in table.values() for cell in rows.values()
+                 for v in cell.values())
+    if failed:
+        log(f"[han07] {failed} renders failed (named in the report)")
+    return 1 if failed else 0
 
 
 def fig2_only(a, log) -> int:
