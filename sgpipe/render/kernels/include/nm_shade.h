@@ -122,6 +122,25 @@ inline float3 nm_single_lobe(int filter, int has_map, float rl, float s, float b
     return (float3)(e, nrm, a);
 }
 
+/* Level 0's taps as lobes: a tap whose unit normal n lies within NM_MERGE_COS of the axis of a
+ * lobe j in [from, n) with the same parameters (D amplitude, e, norm, a = par) adds its weight
+ * w to that lobe instead of becoming one (the taps on a flat facet of the map share one
+ * normal); 1 when merged. */
+#define NM_MERGE_COS 0.99995f   /* 0.01 rad */
+inline int nm_merge_tap(float4 *ax, float4 *lp, int from, int n, float3 nk, float w,
+                        float4 par) {
+    for (int j = from; j < n; ++j) {
+        if (dot(ax[j].xyz, nk) > NM_MERGE_COS && ax[j].w == par.x && lp[j].y == par.y
+            && lp[j].z == par.z && lp[j].w == par.w) {
+            float w0 = lp[j].x;
+            ax[j].xyz = normalize(w0 * ax[j].xyz + w * nk);
+            lp[j].x = w0 + w;
+            return 1;
+        }
+    }
+    return 0;
+}
+
 /* Trilinear fetch between levels l0 and l0 + 1 with weight f (f = 0: l0 only) of slot `slot`
  * of `stride` per texel in the level's block `which`: 0 the lobes (α_j, α_j·r_j), 1 the mean
  * normal, 2 the SH coefficients γ_lm (nm_levels: lobe, mean, SH offsets in x, z, w). */

@@ -254,8 +254,11 @@
             float3 nk = to_world(n0s[k].yzw, T, B, N);
             float ln = length(nk);
             if (n0s[k].x <= 0.0f || ln <= 0.0f) continue;
+            float wt = (1.0f - f) * (n0s[k].x / (float)ntap);
+            if (nm_merge_tap(ax, lp, 0, nlob, nk / ln, wt,
+                             (float4)(1.0f, s, bnorm * (s + 1.0f), s))) continue;
             ax[nlob] = (float4)(nk / ln, 1.0f);
-            lp[nlob] = (float4)((1.0f - f) * (n0s[k].x / (float)ntap), s, bnorm * (s + 1.0f), s);
+            lp[nlob] = (float4)(wt, s, bnorm * (s + 1.0f), s);
             ++nlob;
         }
         n0l = nlob;
@@ -271,8 +274,12 @@
             float kappa = lr >= 1.0f ? 1e30f : (3.0f * lr - lr * lr * lr) / (1.0f - lr * lr);
             float sp = kappa > 1e20f ? s : kappa * s / (kappa + s);          /* eq 20 */
             float a2 = s * s + 2.0f / kappa;                                   /* eq 21 */
-            ax[nlob] = (float4)(normalize(to_world(r / lr, T, B, N)), s * s / a2);
-            lp[nlob] = (float4)(t.x, sp, bnorm * (sp + 1.0f), sqrt(a2));
+            float3 mu = normalize(to_world(r / lr, T, B, N));
+            float4 par = (float4)(s * s / a2, sp, bnorm * (sp + 1.0f), sqrt(a2));
+            /* the box's texels repeat on a periodic map: their equal lobes shade once */
+            if (nm_merge_tap(ax, lp, n0l, nlob, mu, t.x, par)) continue;
+            ax[nlob] = (float4)(mu, par.x);
+            lp[nlob] = (float4)(t.x, par.yzw);
             ++nlob;
         }
     }
@@ -313,6 +320,7 @@
                 wk = n0s[k].x / (float)ntap;
             }
             float3 q = nm_single_lobe(NM_FILTER, info.w, rk, s, bnorm, &amp);
+            if (at0 && nm_merge_tap(ax, lp, 0, nlob, ak, wk, (float4)(amp, q))) continue;
             ax[nlob] = (float4)(ak, amp);
             lp[nlob] = (float4)(wk, q.x, q.y, q.z);
             ++nlob;
