@@ -1,0 +1,101 @@
+/* Part of the normal-map kernels' body (nm_shade_body.h, included inside each __kernel
+ * function after the footprint's fetches): the pixel's specular lobes ax / lp and their
+ * count nlob, per filter (nm_shade.h documents each). */
+    /* The pixel's specular lobes: axis (world), weight, Blinn–Phong exponent e with its
+     * normalisation, microfacet roughness a with its D amplitude (nm_shade.h). */
+    float4 ax[NM_MAX_AX];         /* axis (world), D amplitude (microfacet) */
+    float4 lp[NM_MAX_AX];         /* (weight, e, norm, a) */
+    int nlob = 0;
+    float bnorm = 0.25f * (s + 2.0f) / (s + 1.0f) * NM_INV_2PI;   /* × (s′ + 1): eq 20 */
+#if NM_FILTER == NM_VMF
+    /* Diffuse: level 0's part (weight 1 − f) at its unit bilinear normals — the first n0l
+     * lobes, as the reference and normals_mip read the map: the plain bilinear mean is shorter
+     * (0.8 at the grooves' kinks) and darkened vmf against both — and the coarser part
+     * f·n̄₁ (linear in the NDF, eq 5) as the plain mean. */
+    int n0l = 0;
+    float3 mean1 = mean;
+    if (info.w && at0) {
+        float3 s0 = (float3)(0.0f);
+        for (int k = 0; k < n0c; ++k) s0 += n0s[k].yzw;
+        mean1 = to_world(mean_t - (1.0f - f) * s0 / (float)ntap, T, B, N);
+    }
+    if (!info.w) {
+        ax[0] = (float4)(N, 1.0f); lp[0] = (float4)(1.0f, s, bnorm * (s + 1.0f), s); nlob = 1;
+    } else {
+        for (int k = 0; at0 && k < n0c; ++k) {               /* level 0: bilinear normals */
+            float3 nk = to_world(n0s[k].yzw, T, B, N);
+            float ln = length(nk);
+            if (n0s[k].x <= 0.0f || ln <= 0.0f) continue;
+            float wt = (1.0f - f) * (n0s[k].x / (float)ntap);
+            if (nm_merge_tap(ax, lp, 0, nlob, nk / ln, wt,
+                             (float4)(1.0f, s, bnorm * (s + 1.0f), s))) continue;
+            ax[nlob] = (float4)(nk / ln, 1.0f);
+            lp[nlob] = (float4)(wt, s, bnorm * (s + 1.0f), s);
+            ++nlob;
+        }
+        n0l = nlob;
+        int lvx = nm_levels[l0].x;
+        for (int j = 0; j < (nbx > 0 ? nbx * nl : nl); ++j) {
+            /* box: texel j / nl's lobe j % nl, weighted by its overlap */
+            float4 t = nbx > 0 ? bw[j / nl] * nm_data[lvx + bidx[j / nl] * info.z + j % nl]
+                               : lob[j];
+            if (t.x <= 0.0f) continue;
+            float3 r = t.yzw / t.x;
+            float lr = length(r);
+            if (lr <= 0.0f) continue;
+            float kappa = lr >= 1.0f ? 1e30f : (3.0f * lr - lr * lr * lr) / (1.0f - lr * lr);
+            float sp = kappa > 1e20f ? s : kappa * s / (kappa + s);          /* eq 20 */
+            float a2 = s * s + 2.0f / kappa;                                   /* eq 21 */
+            float3 mu = normalize(to_world(r / lr, T, B, N));
+            float4 par = (float4)(s * s / a2, sp, bnorm * (sp + 1.0f), sqrt(a2));
+            /* the box's texels repeat on a periodic map: their equal lobes shade once */
+            if (nm_merge_tap(ax, lp, n0l, nlob, mu, t.x, par)) continue;
+            ax[nlob] = (float4)(mu, par.x);
+            lp[nlob] = (float4)(t.x, par.yzw);
+            ++nlob;
+        }
+    }
+#elif NM_FILTER == NM_SH
+    /* level 0's taps (lobes 0 … n0l − 1: the bare material at the bilinear normal), then for
+     * the environment's specular the engine_bake lobe about n̄ (weight f, or 1 above level 0) */
+    int n0l = 0;
+    for (int k = 0; at0 && k < n0c; ++k) {
+        float3 nk = to_world(n0s[k].yzw, T, B, N);
+        float ln = length(nk), amp;
+        if (n0s[k].x <= 0.0f || ln <= 0.0f) continue;
+        float3 q = nm_single_lobe(NM_MIP, info.w, 1.0f, s, bnorm, &amp);
+        ax[nlob] = (float4)(nk / ln, amp);
+        lp[nlob] = (float4)((1.0f - f) * (n0s[k].x / (float)ntap), q.x, q.y, q.z);
+        ++nlob;
+    }
+    n0l = nlob;
+    if (!at0 || f > 0.0f) {
+        float amp;
+        float3 q = nm_single_lobe(NM_SH, info.w, rlobe, s, bnorm, &amp);
+        ax[nlob] = (float4)(nbar, amp);
+        lp[nlob] = (float4)(at0 ? f : 1.0f, q.x, q.y, q.z);
+        ++nlob;
+    }
+#else
+    {
+        int nsrc = at0 ? n0c : 1;
+        for (int k = 0; k < nsrc; ++k) {
+            float3 ak = nbar;
+            float rk = rlobe, wk = 1.0f, amp;
+            if (at0) {                                /* box, level 0: the tap's lobe */
+                if (n0s[k].x <= 0.0f) continue;
+                float3 mk = to_world(n0s[k].yzw / n0s[k].x, T, B, N);
+                rk = length(mk);
+                if (rk <= 0.0f) continue;
+                ak = mk / rk;
+                rk = fmin(n0r[k] / n0s[k].x, 1.0f);    /* level 0's baked length, 1 */
+                wk = n0s[k].x / (float)ntap;
+            }
+            float3 q = nm_single_lobe(NM_FILTER, info.w, rk, s, bnorm, &amp);
+            if (at0 && nm_merge_tap(ax, lp, 0, nlob, ak, wk, (float4)(amp, q))) continue;
+            ax[nlob] = (float4)(ak, amp);
+            lp[nlob] = (float4)(wk, q.x, q.y, q.z);
+            ++nlob;
+        }
+    }
+#endif
