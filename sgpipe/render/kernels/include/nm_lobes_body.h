@@ -4,6 +4,9 @@
     /* The pixel's specular lobes: axis (world), weight, Blinn–Phong exponent e with its
      * normalisation, microfacet roughness a with its D amplitude (nm_shade.h). */
     float4 ax[NM_MAX_AX];         /* axis (world), D amplitude (microfacet) */
+#if NM_FILTER == NM_VMF
+    float lrl[NM_MAX_AX];         /* vmf: each lobe's mean resultant length A(κ) */
+#endif
     float4 lp[NM_MAX_AX];         /* (weight, e, norm, a) */
     int nlob = 0;
     float bnorm = 0.25f * (s + 2.0f) / (s + 1.0f) * NM_INV_2PI;   /* × (s′ + 1): eq 20 */
@@ -21,6 +24,7 @@
     }
     if (!info.w) {
         ax[0] = (float4)(N, 1.0f); lp[0] = (float4)(1.0f, s, bnorm * (s + 1.0f), s); nlob = 1;
+        lrl[0] = 1.0f;
     } else {
         for (int k = 0; at0 && k < n0c; ++k) {               /* level 0: bilinear normals */
             float3 nk = to_world(n0s[k].yzw, T, B, N);
@@ -50,6 +54,7 @@
             float4 par = (float4)(s * s / a2, sp, bnorm * (sp + 1.0f), sqrt(a2));
             /* the box's texels repeat on a periodic map: their equal lobes shade once */
             if (nm_merge_tap(ax, lp, n0l, nlob, mu, t.x, par)) continue;
+            lrl[nlob] = fmin(lr, 1.0f);
             ax[nlob] = (float4)(mu, par.x);
             lp[nlob] = (float4)(t.x, par.yzw);
             ++nlob;

@@ -141,6 +141,20 @@ inline int nm_merge_tap(float4 *ax, float4 *lp, int from, int n, float3 nk, floa
     return 0;
 }
 
+/* The environment's diffuse term (the `sg` method's SG-light sum, diffuse_env_sg) for a unit
+ * normal d (world) seen from o. */
+#ifndef NM_DIFF_LOBES
+#define NM_DIFF_LOBES 3     /* vmf: lobes whose environment diffuse is taken at their own axes */
+#endif
+inline float3 nm_env_diffuse_at(__global const float *m, float3 kd, float3 o, float3 d,
+                                float3 T, float3 B, float3 N, __global const float4 *env_sg,
+                                int n_env_sg, float env_scale, const Vis *vis) {
+    float4 q = quat_from_z(normalize(to_local(d, T, B, N)));
+    float4 qi = quat_conj(q);
+    float3 op = lift(normalize(quat_rotate(qi, lift(to_local(o, T, B, N), 0.01f))), 0.01f);
+    return diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, vis);
+}
+
 /* Trilinear fetch between levels l0 and l0 + 1 with weight f (f = 0: l0 only) of slot `slot`
  * of `stride` per texel in the level's block `which`: 0 the lobes (α_j, α_j·r_j), 1 the mean
  * normal, 2 the SH coefficients γ_lm (nm_levels: lobe, mean, SH offsets in x, z, w). */

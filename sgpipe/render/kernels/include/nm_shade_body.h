@@ -261,9 +261,33 @@
             float3 ed = diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale,
                                        &vis);
 #if NM_FILTER == NM_VMF
-            /* linear in the NDF (eq 5), as the lights' diffuse: the facets' mean cosine is
-             * n̄·i, |n̄| < 1 where they spread (level 0's taps count as unit normals) */
-            ed *= (at0 ? 1.0f - f : 0.0f) + length(mean1);
+            /* linear in the NDF (eq 5), as the lights' diffuse: level 0's taps at n̄ as unit
+             * normals; the coarser part per lobe — the NM_DIFF_LOBES heaviest lobes j at their
+             * own axes μ_j with weight α_j A(κ_j) (facets that turn away from part of the sky
+             * see less of it than n̄ does), the rest of the mean, n̄₁ − Σ α_j A_j μ_j, at its
+             * direction */
+            float3 ec = (float3)(0.0f), rest = mean1;
+            int used[NM_DIFF_LOBES];
+            for (int u = 0; u < NM_DIFF_LOBES; ++u) {
+                int best = -1;
+                float bw = 0.0f;
+                for (int j = n0l; j < nlob; ++j) {
+                    int taken = 0;
+                    for (int v = 0; v < u; ++v) taken |= used[v] == j;
+                    float wj = lp[j].x * lrl[j];
+                    if (!taken && wj > bw) { bw = wj; best = j; }
+                }
+                used[u] = best;
+                if (best < 0) break;
+                rest -= bw * ax[best].xyz;
+                ec += bw * nm_env_diffuse_at(m, kd, o, ax[best].xyz, T, B, N, env_sg, n_env_sg,
+                                             env_scale, &vis);
+            }
+            float lrest = length(rest);
+            if (lrest > 1e-4f)
+                ec += lrest * nm_env_diffuse_at(m, kd, o, rest / lrest, T, B, N, env_sg,
+                                                n_env_sg, env_scale, &vis);
+            ed = ed * (at0 ? 1.0f - f : 0.0f) + ec;
 #endif
             acc += ed;
         }
