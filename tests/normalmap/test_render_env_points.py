@@ -73,3 +73,44 @@ def test_vmf_environment_diffuse_is_linear_in_the_ndf():
     np.testing.assert_allclose(got / unit_n, a_k, rtol=1e-4)
     # the SG light fit of a constant map, cut at the horizon: π·C within 4 %
     np.testing.assert_allclose(unit_n, kd * c, rtol=0.04)
+
+
+def _two_lobe_pyramid(tilt_deg: float, kappa: float):
+    """single_lobe_pyramid with two equal lobes at ±tilt from z in the x–z plane on level 1."""
+    from sgpipe.normalmap.lobes import rbar_of_kappa
+    from sgpipe.render.normalmap_data import NormalMapPyramid
+    t = math.radians(tilt_deg)
+    mus = [unit([math.sin(t), 0.0, math.cos(t)]), unit([-math.sin(t), 0.0, math.cos(t)])]
+    a1 = np.full((1, 1, 2), 0.5, np.float32)
+    ar1 = np.stack([0.5 * rbar_of_kappa(kappa) * m for m in mus]).reshape(1, 1, 2, 3)
+    a0 = np.zeros((2, 2, 2), np.float32)
+    a0[..., 0] = 1.0
+    ar0 = np.zeros((2, 2, 2, 3), np.float32)
+    ar0[..., 0, :] = [0.0, 0.0, 1.0]
+    a_k = 1.0 / math.tanh(kappa) - 1.0 / kappa
+    mean = [np.tile([0.0, 0.0, 1.0], (2, 2, 1)).astype(np.float32),
+            (a_k * 0.5 * (mus[0] + mus[1])).reshape(1, 1, 3).astype(np.float32)]
+    return NormalMapPyramid([a0, a1], [ar0, ar1.astype(np.float32)], mean, None)
+
+
+def test_vmf_environment_diffuse_of_facets_turned_from_the_sky():
+    """Two sharp lobes at ±60° (a v-groove's facets) under a constant sky C cut at the geometric
+    horizon, kd only: each facet sees kd·C·(1 + cos 60°)/2 (a plane tilted by θ sees that much of
+    an upper hemisphere), so vmf's diffuse is 0.75·kd·C, not |n̄|·kd·C = 0.5·kd·C (the mean
+    normal's irradiance scaled by its length, which the facets' clipped cosines exceed)."""
+    kd, c, kappa = 0.6, 0.7, 1e4
+    a_k = 1.0 / math.tanh(kappa) - 1.0 / kappa
+    views = unit(np.array([[0.0, 0.0, 1.0], [0.0, 0.5, 1.0]]))
+    n = len(views)
+    fr = flat_frame(views, np.full((n, 2), 0.4), np.tile([8.0, 0, 0, 8.0], (n, 1)))
+    env = EnvData.constant(c)
+    r = renderer("beckmann", 0.2, _two_lobe_pyramid(60.0, kappa), kd=kd, ks=0.0, env=env)
+    got, flat = r.shade("vmf", fr), r.shade("normals_mip", fr)
+    # each facet as the kernels shade one normal tilted by 60° (the same SG-light sum)
+    facet = renderer("beckmann", 0.2, single_lobe_pyramid(
+        [math.sin(math.pi / 3), 0.0, 0.5], kappa), kd=kd, ks=0.0, env=env).shade(
+        "normals_mip", fr)
+    np.testing.assert_allclose(got, a_k * facet, rtol=2e-3)
+    # against the analytic (1 + cos θ)/2: the SG light fit's clamped cosine cut at the horizon
+    # reads 0.807 for a 60° tilt (normals_mip shades the unit n̄ = z: kd·C, within 4 %)
+    np.testing.assert_allclose(got / flat, 0.75, rtol=0.08)
