@@ -25,21 +25,30 @@ visibility: {{trace_resolution: 32, resolution: 16, pca_terms: 8}}
 """
 
 
+def _in_private_tmpfs(tmp_path, size: str, commands: str, done: str, timeout: int) -> Path:
+    """Run the shell `commands` with a tmpfs of `size` mounted at the returned folder (`{mnt}`
+    in them) inside a private user + mount namespace; skip the test where that cannot be made
+    or where the commands did not write tmp_path/`done`."""
+    mnt = tmp_path / "mnt"
+    mnt.mkdir()
+    script = f"mount -t tmpfs -o size={size} tmpfs {mnt} || exit 99; " + commands.format(mnt=mnt)
+    r = subprocess.run(["unshare", "--user", "--map-root-user", "--mount", "sh", "-c", script],
+                       capture_output=True, text=True, timeout=timeout)
+    if r.returncode == 99 or not (tmp_path / done).exists():
+        pytest.skip(f"no private tmpfs here: {r.stderr.strip()[:200]}")
+    return mnt
+
+
 def _run_on_tmpfs(tmp_path, size: str, workers: int) -> tuple[int, str, list[str], str]:
     """(exit status, stderr, what is left under --out, `df` of the tmpfs afterwards)."""
     cfg = tmp_path / "c.yaml"
     cfg.write_text(textwrap.dedent(CONFIG))
-    mnt = tmp_path / "mnt"
-    mnt.mkdir()
-    script = (f"mount -t tmpfs -o size={size} tmpfs {mnt} || exit 99; "
-              f"{sys.executable} -m sgpipe precompute {cfg} --out {mnt}/out "
-              f"--set workers={workers} 2>{tmp_path}/err; echo $? > {tmp_path}/rc; "
-              f"ls -A {mnt}/out > {tmp_path}/left 2>/dev/null; "
-              f"df -B1 --output=used {mnt} | tail -1 > {tmp_path}/used")
-    r = subprocess.run(["unshare", "--user", "--map-root-user", "--mount", "sh", "-c", script],
-                       capture_output=True, text=True, timeout=300)
-    if r.returncode == 99 or not (tmp_path / "rc").exists():
-        pytest.skip(f"no private tmpfs here: {r.stderr.strip()[:200]}")
+    _in_private_tmpfs(tmp_path, size,
+                      f"{sys.executable} -m sgpipe precompute {cfg} --out {{mnt}}/out "
+                      f"--set workers={workers} 2>{tmp_path}/err; echo $? > {tmp_path}/rc; "
+                      f"ls -A {{mnt}}/out > {tmp_path}/left 2>/dev/null; "
+                      f"df -B1 --output=used {{mnt}} | tail -1 > {tmp_path}/used",
+                      "rc", 300)
     left = (tmp_path / "left").read_text().split()
     return (int((tmp_path / "rc").read_text()), (tmp_path / "err").read_text(), left,
             (tmp_path / "used").read_text().strip())
@@ -101,19 +110,13 @@ def test_any_write_that_finds_the_disk_full_is_one_line(tmp_path, monkeypatch, c
 def test_png_that_does_not_fit_is_not_renamed_into_place(tmp_path):
     """OpenImageIO's PNG writer reports a short write only as a pending error (write_image and
     close return True): a 1 MB tmpfs got a truncated preview PNG under the final name."""
-    mnt = tmp_path / "mnt"
-    mnt.mkdir()
     code = ("import numpy as np\nfrom sgpipe.io import write_png\n"
             "rng = np.random.default_rng(0)\n"
-            f"try:\n    write_png('{mnt}/big.png', rng.random((1500, 1500, 3)))\n"
+            "try:\n    write_png('{mnt}/big.png', rng.random((1500, 1500, 3)))\n"
             "except OSError as e:\n    print('errno', e.errno)\n"
-            f"write_png('{mnt}/small.png', rng.random((64, 64, 3)))\n")
-    script = (f"mount -t tmpfs -o size=1m tmpfs {mnt} || exit 99; "
-              f"{sys.executable} -c \"{code}\" > {tmp_path}/out 2>&1; "
-              f"ls -A {mnt} > {tmp_path}/left")
-    r = subprocess.run(["unshare", "--user", "--map-root-user", "--mount", "sh", "-c", script],
-                       capture_output=True, text=True, timeout=120)
-    if r.returncode == 99 or not (tmp_path / "left").exists():
-        pytest.skip(f"no private tmpfs here: {r.stderr.strip()[:200]}")
+            "write_png('{mnt}/small.png', rng.random((64, 64, 3)))\n")
+    _in_private_tmpfs(tmp_path, "1m",
+                      f"{sys.executable} -c \"{code}\" > {tmp_path}/out 2>&1; "
+                      f"ls -A {{mnt}} > {tmp_path}/left", "left", 120)
     assert (tmp_path / "out").read_text().strip() == "errno 28"
     assert (tmp_path / "left").read_text().split() == ["small.png"]

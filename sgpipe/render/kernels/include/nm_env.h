@@ -7,10 +7,9 @@
  * c = o·n, the h-lobe's offsets across the plane of incidence move i by 2c per radian and those
  * in it by 2, so the i-lobe has sharpness λ/(4c²) across and λ/4 along the plane; three
  * isotropic sub-lobes of the across sharpness at 0, ±√3·σ_s along the plane (σ_s² = 4(1 − c²)/λ,
- * weights 2/3, 1/6, 1/6) carry the same variance and integral. Each sub-lobe's factors are
- * taken at its own axis, with the h-offset towards o it stands for (δ = ±√3σ_s/2) and the
- * residual spread in the plane (σ_r = c/√λ). NM_SUBLOBES = 1: Wang09's isotropic warp
- * λ/(4c), δ = 0, σ_r = 1/√λ. */
+ * offset ≤ 0.5 rad, weights 2/3, 1/6, 1/6) carry the same variance and integral. The lobe's
+ * factors averaged over it (nm_env_factor) set the sum; the factors at each sub-lobe's own axis
+ * (nm_env_point) split it between them. NM_SUBLOBES = 1: Wang09's isotropic warp λ/(4c). */
 #ifndef SGPIPE_NM_ENV_H
 #define SGPIPE_NM_ENV_H
 
@@ -43,11 +42,11 @@ inline float3 nm_fresnel_lobe(__global const float *m, float c, float u, float t
 
 /* The factors of the BRDF × cosine other than D, per unit of the warped SG, averaged over the
  * whole h-lobe about n (spread σ = 1/√λ_h per axis) reflected to its lifted axis p: view ol
- * (lifted, c = n·ol > 0), lobe parameters e (Blinn–Phong) or a (microfacet). The Jacobian 4(o·h)
+ * (lifted, c = n·ol > 0), roughness a (microfacet; Blinn–Phong: σ alone). The Jacobian 4(o·h)
  * of h → i, which the warp takes as 4c, is replaced by its mean over the lobe, o·h = c +
  * sin θ_o σ Z, counted where n·i > 0 (o·h > c/2). */
 inline float3 nm_env_factor(__global const float *m, float3 ks, int model, float3 n, float3 ol,
-                            float3 p, float e, float a, float sh) {
+                            float3 p, float a, float sh) {
     float co = dot(n, ol), ci = dot(n, p);
     if (model == NM_BLINN) {
         /* ∫ (n·h)^e (n·i) 4(o·h) dω_h: the SG's integral holds 4c. With h offset by x towards o
@@ -129,7 +128,7 @@ inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 
      * into directions above it: i = 2(o·h)h − o with n·i > 0) */
     float3 p1 = normalize(nm_lift(w.p, n, fmin(rsqrt(w.lam), 0.5f)));
     if (dot(n, p1) <= 0.0f) return (float3)(0.0f);
-    float3 f1 = nm_env_factor(m, ks, model, n, ol, p1, e, a, sh);
+    float3 f1 = nm_env_factor(m, ks, model, n, ol, p1, a, sh);
 #if NM_SUBLOBES == 3
     float co = dot(n, ol);
     float sig = 2.0f * sh * sqrt(fmax(1.0f - co * co, 0.0f));      /* σ_s */

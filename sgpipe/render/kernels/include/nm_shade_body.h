@@ -255,41 +255,41 @@
 #endif
         {
             /* the environment's diffuse part about the filtered normal (sg's SG-light sum) */
-            float4 q = quat_from_z(normalize(to_local(nbar, T, B, N)));
-            float4 qi = quat_conj(q);
-            float3 op = lift(normalize(quat_rotate(qi, lift(to_local(o, T, B, N), 0.01f))), 0.01f);
-            float3 ed = diffuse_env_sg(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale,
-                                       &vis);
-#if NM_FILTER == NM_VMF
+#if NM_FILTER != NM_VMF
+            acc += nm_env_diffuse_at(m, kd, o, nbar, T, B, N, env_sg, n_env_sg, env_scale,
+                                     &vis);
+#else
             /* linear in the NDF (eq 5), as the lights' diffuse: level 0's taps at n̄ as unit
              * normals; the coarser part per lobe — the NM_DIFF_LOBES heaviest lobes j at their
              * own axes μ_j with weight α_j A(κ_j) (facets that turn away from part of the sky
              * see less of it than n̄ does), the rest of the mean, n̄₁ − Σ α_j A_j μ_j, at its
              * direction */
-            float3 ec = (float3)(0.0f), rest = mean1;
+            float3 ed = (float3)(0.0f), rest = mean1;
+            if (at0 && f < 1.0f)
+                ed = (1.0f - f) * nm_env_diffuse_at(m, kd, o, nbar, T, B, N, env_sg, n_env_sg,
+                                                    env_scale, &vis);
             int used[NM_DIFF_LOBES];
-            for (int u = 0; u < NM_DIFF_LOBES; ++u) {
+            for (int u = 0; n_env_sg > 0 && u < NM_DIFF_LOBES; ++u) {
                 int best = -1;
-                float bw = 0.0f;
+                float wbest = 0.0f;
                 for (int j = n0l; j < nlob; ++j) {
                     int taken = 0;
                     for (int v = 0; v < u; ++v) taken |= used[v] == j;
                     float wj = lp[j].x * lrl[j];
-                    if (!taken && wj > bw) { bw = wj; best = j; }
+                    if (!taken && wj > wbest) { wbest = wj; best = j; }
                 }
                 used[u] = best;
                 if (best < 0) break;
-                rest -= bw * ax[best].xyz;
-                ec += bw * nm_env_diffuse_at(m, kd, o, ax[best].xyz, T, B, N, env_sg, n_env_sg,
-                                             env_scale, &vis);
+                rest -= wbest * ax[best].xyz;
+                ed += wbest * nm_env_diffuse_at(m, kd, o, ax[best].xyz, T, B, N, env_sg,
+                                                n_env_sg, env_scale, &vis);
             }
             float lrest = length(rest);
-            if (lrest > 1e-4f)
-                ec += lrest * nm_env_diffuse_at(m, kd, o, rest / lrest, T, B, N, env_sg,
+            if (n_env_sg > 0 && lrest > 1e-4f)
+                ed += lrest * nm_env_diffuse_at(m, kd, o, rest / lrest, T, B, N, env_sg,
                                                 n_env_sg, env_scale, &vis);
-            ed = ed * (at0 ? 1.0f - f : 0.0f) + ec;
-#endif
             acc += ed;
+#endif
         }
     }
     if (env_on) {
