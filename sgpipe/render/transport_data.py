@@ -14,7 +14,7 @@ import numpy as np
 from sgpipe.errors import BadInput
 
 #: Gaussians per vertex and view the kernel blends (transport.h TP_MAX_K)
-MAX_GAUSSIANS = 3
+MAX_GAUSSIANS = 4
 #: SH coefficients per transfer vector (5th order, sgpipe.transport.sh_transfer)
 SH_COEFFS = 25
 

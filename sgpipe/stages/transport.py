@@ -122,11 +122,13 @@ def _run(cfg, run: StageRun, tmp: Path, geoms, materials) -> None:
                                        g.tangents[o], b[o], [adj[i] for i in o], model, params,
                                        t.cube_resolution, offset, opts,
                                        float(np.sin(np.radians(t.min_view_elevation_deg))),
-                                       ind))
+                                       ind, t.sampling, t.lobe_samples))
             owner.append(k)
     n_vert = sum(len(g.positions) for g in geoms)
     log(f"[transport] {len(geoms)} objects, {n_vert} vertices × 92 views, "
-        f"{t.gaussians} Gaussian(s), light cube 6×{t.cube_resolution}²"
+        f"{t.gaussians} Gaussian(s), "
+        + (f"{t.lobe_samples} lobe samples per view, " if t.sampling == "lobe" else "")
+        + f"light cube 6×{t.cube_resolution}²"
         + (f", indirect ({t.indirect_bounces} bounces, {t.indirect_paths} paths per view, "
            f"{t.indirect_transfer_paths} per occluded texel)" if t.indirect else ""))
     t0 = time.perf_counter()

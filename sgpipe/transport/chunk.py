@@ -1,8 +1,10 @@
 """One parallel work item of the transport stage: a contiguous range of the flood-fill vertex
-order. Per vertex: trace visibility over the light cube, sample the direct glossy transport for
-the 92 views (eq 2), its SH transfer, and fit the Gaussians (eq 6) — starting from an already
-fitted neighbour in the same chunk and holding the fitted neighbours' means in the spatial term
-(Green06 §4.2's flood fill). The transport itself is never stored: it lives for one vertex.
+order. Per vertex: trace visibility over the light cube and its SH transfer; then with
+`sampling: cube` sample the direct glossy transport for the 92 views at the cube's texels
+(eq 2) and fit the Gaussians (eq 6) — starting from an already fitted neighbour in the same
+chunk and holding the fitted neighbours' means in the spatial term (Green06 §4.2's flood
+fill) —, with `sampling: lobe` sample each view's specular lobe and set its Gaussians from
+those samples (`lobe_fit`). The transport itself is never stored: it lives for one vertex.
 With `TransportTask.indirect` the indirect glossy part T^IG (eq 5) is added to T before the fit
 and the interreflected SH transfer is kept beside the shadowed one; each vertex's random
 numbers come from its own generator seeded by (config seed, object, vertex), so no result
@@ -23,8 +25,11 @@ import numpy as np
 from sgpipe.brdf import make_brdf
 from sgpipe.transport.fit import (FitOptions, VertexFit, VertexProblem, fit_vertex,
                                   init_from_neighbour, init_params, negligible_transport)
-from sgpipe.transport.sampling import (PathScene, light_cube, vertex_indirect_transport,
-                                       vertex_transport, vertex_visibility)
+from sgpipe.transport.lobe_fit import (EXTRAPOLATE_COS, lobe_gaussians, lobe_samples,
+                                       raised_views, sample_error, shadow_samples)
+from sgpipe.transport.sampling import (PathScene, indirect_exits, light_cube,
+                                       vertex_indirect_transport, vertex_transport,
+                                       vertex_visibility)
 from sgpipe.transport.sh_transfer import interreflected_transfer, texel_basis, transfer_vector
 from sgpipe.transport.views import view_set
 from sgpipe.visibility.trace import scene_from_file
@@ -82,6 +87,10 @@ class TransportTask:
     min_cos: float = 0.0
     #: transport.indirect's paths, or None for direct transport only
     indirect: "IndirectOptions | None" = None
+    #: "cube" (Green06's light-cube samples fitted by eq 6) or "lobe" (lobe_fit's moments)
+    sampling: str = "cube"
+    #: lobe samples per view with sampling "lobe"
+    lobe_samples: int = 128
 
 
 @dataclass
@@ -136,6 +145,10 @@ def run_chunk(task: TransportTask) -> TransportResult:
         t0 = time.perf_counter()
         nrm, tan, bit = task.normals[i], task.tangents[i], task.bitangents[i]
         vis = vertex_visibility(scene, task.positions[i], nrm, cube.dirs, task.offset)
+        if task.sampling == "lobe":
+            _fit_lobe_vertex(task, i, scene, brdf, views, cube, basis, vis, res)
+            res.transport_s += time.perf_counter() - t0
+            continue
         T, active = vertex_transport(brdf, nrm, tan, bit, views, cube, vis, task.min_cos)
         res.sh[i] = transfer_vector(basis, cube, nrm, vis)
         if ind is not None:
@@ -176,6 +189,50 @@ def run_chunk(task: TransportTask) -> TransportResult:
         res.fit_s += time.perf_counter() - t1
     res.cpu_s = time.process_time() - c0
     return res
+
+
+def _fit_lobe_vertex(task: TransportTask, i: int, scene, brdf, views, cube, basis, vis,
+                     res: TransportResult) -> None:
+    """Row i of `res` by `transport.sampling: lobe` (lobe_fit): the view's specular-lobe
+    samples, shadowed by traced rays (plus the indirect paths' exits), one Gaussian per view
+    by moments; the SH transfer from the light cube's visibility as with `cube`."""
+    nrm, tan, bit, pos = task.normals[i], task.tangents[i], task.bitangents[i], task.positions[i]
+    active = views @ nrm > EXTRAPOLATE_COS
+    fit_views = raised_views(views, nrm, tan, task.min_cos)
+    res.sh[i] = transfer_vector(basis, cube, nrm, vis)
+    up = cube.dirs @ nrm > 0
+    res.visible[i] = vis[up].mean() if up.any() else 0.0
+    res.mu[i], res.sigma[i] = views[:, None, :], task.opts.sigma_max
+    if not brdf.has_specular or not active.any():
+        return
+    dirs, wgt, q = lobe_samples(brdf, nrm, tan, bit, fit_views, active, task.lobe_samples)
+    wgt = shadow_samples(scene, pos, nrm, dirs, wgt, task.offset)
+    d_all, w_all = dirs, wgt
+    ind = task.indirect
+    if ind is not None:
+        rng = ind.vertex_rng(task.order[i])
+        a, slot, d, wi = indirect_exits(ind.scene, brdf, pos, nrm, tan, bit, fit_views, active,
+                                        paths=ind.paths, bounces=ind.bounces,
+                                        offset=task.offset, rng=rng)
+        n_act = int(active.sum())
+        d_ind, w_ind = np.zeros((n_act, ind.paths, 3)), np.zeros((n_act, ind.paths, 3))
+        d_ind[a, slot], w_ind[a, slot] = d, wi
+        d_all, w_all = np.concatenate([dirs, d_ind], 1), np.concatenate([wgt, w_ind], 1)
+        res.sh_indirect[i] = interreflected_transfer(
+            ind.scene, cube, pos, nrm, vis, paths=ind.transfer_paths, bounces=ind.bounces,
+            offset=task.offset, rng=rng)
+    if negligible_transport(w_all):
+        return
+    mu, sig, w = lobe_gaussians(d_all, w_all, views, active, task.opts.sigma_min,
+                                task.opts.sigma_max, task.opts.gaussians, nrm)
+    res.mu[i], res.sigma[i], res.w[i] = mu, sig, w
+    # over the direct samples (the indirect exits' density is not known) of the views above
+    # the horizon (not the raised ones)
+    above = (views @ nrm > task.min_cos)[active]
+    full = np.zeros(len(views), bool)
+    full[np.flatnonzero(active)[above]] = True
+    res.rel_err[i] = sample_error(dirs[above], wgt[above], q[above], mu, sig, w, full)
+    res.fitted += 1
 
 
 __all__ = ["vertex_adjacency", "flood_order", "TransportTask", "IndirectOptions",

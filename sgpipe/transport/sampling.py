@@ -173,15 +173,17 @@ def follow_paths(scene: PathScene, origins, dirs, beta, bounces: int, offset: fl
     return np.concatenate(out_i), np.concatenate(out_d), np.concatenate(out_b)
 
 
-def vertex_indirect_transport(scene: PathScene, brdf, position, normal, tangent, bitangent,
-                              views, active, light: LightCube, *, paths: int, bounces: int,
-                              offset: float, rng) -> np.ndarray:
-    """T^IG (V, M, 3) of Green06 eq 5 for the active views (module docstring): `paths`
-    specular-lobe samples per view, each followed through up to `bounces` other surfaces."""
-    T = np.zeros((len(views), len(light.dirs), 3))
+def indirect_exits(scene: PathScene, brdf, position, normal, tangent, bitangent, views,
+                   active, *, paths: int, bounces: int, offset: float, rng):
+    """Eq 5's indirect paths of the active views: `paths` specular-lobe samples per view, each
+    followed through up to `bounces` other surfaces. Returns the paths that leave the scene:
+    (active-view index a (Q,), path slot (Q,) in [0, paths), exit direction (Q, 3), estimator
+    weight (Q, 3) = throughput / paths, so Σ weight g(d) over a view's exits estimates
+    ∫ T^IG g dω)."""
     act = np.flatnonzero(active)
+    empty = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3)))
     if not brdf.has_specular or len(act) == 0 or bounces < 1:
-        return T
+        return empty
     o_loc = np.repeat(to_local(views[act], normal, tangent, bitangent), paths, axis=0)
     # stratified over each view's `paths` samples (jittered rows of u1)
     u1 = (np.tile(np.arange(paths), len(act)) + rng.random(len(o_loc))) / paths
@@ -195,12 +197,22 @@ def vertex_indirect_transport(scene: PathScene, brdf, position, normal, tangent,
     origin = np.asarray(position, np.float64) + offset * np.asarray(normal, np.float64)
     ray, d, beta = follow_paths(scene, np.broadcast_to(origin, dirs.shape), dirs, w[go],
                                 bounces, offset, rng)
-    view = act[go[ray] // paths]
+    return go[ray] // paths, go[ray] % paths, d, beta / paths
+
+
+def vertex_indirect_transport(scene: PathScene, brdf, position, normal, tangent, bitangent,
+                              views, active, light: LightCube, *, paths: int, bounces: int,
+                              offset: float, rng) -> np.ndarray:
+    """T^IG (V, M, 3) of Green06 eq 5 for the active views (module docstring): the exits of
+    `indirect_exits` binned into the light cube's texels."""
+    T = np.zeros((len(views), len(light.dirs), 3))
+    a, _, d, wgt = indirect_exits(scene, brdf, position, normal, tangent, bitangent, views,
+                                  active, paths=paths, bounces=bounces, offset=offset, rng=rng)
     j = cube_texel(light, d)
-    np.add.at(T, (view, j), beta / (paths * light.omega[j])[:, None])
+    np.add.at(T, (np.flatnonzero(active)[a], j), wgt / light.omega[j][:, None])
     return T
 
 
 __all__ = ["SUPPORTED_CUBE_RESOLUTIONS", "LightCube", "light_cube", "vertex_visibility",
            "vertex_transport", "cube_texel", "PathScene", "follow_paths",
-           "vertex_indirect_transport"]
+           "indirect_exits", "vertex_indirect_transport"]

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from sgpipe.config.schema import doc
 
 #: face resolutions of the light cube (mirrors sgpipe.transport.sampling)
 CUBE_RESOLUTIONS = (4, 8, 16, 32, 64)
+#: the narrowest Gaussian of `sampling: lobe` (degrees): below a Beckmann α 0.01 mirror lobe
+LOBE_SIGMA_MIN_DEG = 0.25
 
 
 @dataclass
@@ -15,10 +18,24 @@ class TransportSection:
     """Per-vertex, per-view transport of the objects of `scene:` fitted with Gaussians
     (Green06 §4). Materials come from `fit.materials` (the objects' `material`)."""
 
-    cube_resolution: int = doc("Face resolution of the light cubemap the transport is sampled "
-                               "on (6·res² light texels; Green06 used 6×16²). One of "
+    sampling: Literal["lobe", "cube"] = doc("Where the glossy transport is sampled and how each view's "
+                        "Gaussians are found. `lobe`: `lobe_samples` directions drawn from "
+                        "each view's specular lobe, shadowed by traced rays, one Gaussian per "
+                        "view with the transport's integral, mean direction and spread "
+                        "(any lobe width keeps its energy). `cube`: Green06 as published, the "
+                        "transport at the light cube's texel centres fitted by eq 6 "
+                        "(Levenberg–Marquardt; 1–3 Gaussians).", "lobe")
+    lobe_samples: int = doc("With `sampling: lobe`: specular-lobe directions per vertex and "
+                            "view (one occlusion ray each).", 128, ge=8, le=4096)
+    cube_resolution: int = doc("Face resolution of the light cubemap (6·res² light texels; "
+                               "Green06 used 6×16²): the diffuse SH transfer's visibility, and "
+                               "with `sampling: cube` the glossy transport's samples. One of "
                                "4, 8, 16, 32, 64.", 16)
-    gaussians: int = doc("Gaussians per vertex per view (Green06 favours 1).", 1, ge=1, le=3)
+    gaussians: int = doc("Gaussians per vertex per view. `sampling: lobe`: 1 one lobe, 2 a "
+                         "core and a wider halo (long-tailed lobes such as GGX), 3 three "
+                         "sub-lobes along the lobe's longest direction (oblique views, "
+                         "anisotropic BRDFs), 4 those three and a halo. `sampling: cube`: 1–3 "
+                         "free Gaussians (Green06 favours 1).", 1, ge=1, le=4)
     alpha: float = doc("Weight α of the data term D (eq 7; each view's term is normalised by "
                        "that view's squared transport, so the weights are unitless).", 1.0,
                        gt=0)
@@ -33,17 +50,22 @@ class TransportSection:
     tolerance: float = doc("LM stops when a step lowers the objective by less than this "
                            "fraction (the per-view start phase uses a tenth of it).", 1e-3,
                            gt=0, lt=1)
-    sigma_min_deg: float = doc("Smallest Gaussian standard deviation (degrees); 0 = half a "
-                               "light texel (45°/cube_resolution), the narrowest lobe the "
-                               "light cube resolves (a narrower one falls between texel "
-                               "centres and its weight is unbounded). Also the low end of the "
-                               "stored σ code.", 0.0, ge=0)
+    sigma_min_deg: float = doc("Smallest Gaussian standard deviation (degrees); 0 = 0.25° with "
+                               "`sampling: lobe`, and half a light texel (45°/cube_resolution) "
+                               "with `sampling: cube`, the narrowest lobe the light cube "
+                               "resolves (a narrower one falls between texel centres and its "
+                               "weight is unbounded). Also the low end of the stored σ code.",
+                               0.0, ge=0)
     sigma_max_deg: float = doc("Largest Gaussian standard deviation (degrees); the high end of "
                                "the σ code.", 86.0, gt=0, le=180)
     min_view_elevation_deg: float = doc("Views closer than this to a vertex's tangent plane "
-                                        "count as below its horizon (weight zero): they see "
-                                        "no projected area, and some BRDFs (Ward) diverge "
-                                        "there.", 1.0, ge=0, lt=30)
+                                        "count as below its horizon: they see no projected "
+                                        "area, and some BRDFs (Ward) diverge there. With "
+                                        "`sampling: cube` they get weight zero; with `lobe` "
+                                        "views down to 60° below it take the lobe of their "
+                                        "view raised to this elevation (the views around a "
+                                        "grazing pixel's view include them).", 1.0, ge=0,
+                                        lt=30)
     vertex_limit: int = doc("Largest vertex count per object; a larger mesh is bad input "
                             "(the cost grows with vertices × 92 views × light texels).", 50000,
                             ge=1)
@@ -72,12 +94,17 @@ class TransportSection:
                                "for the report.", 64, ge=0)
 
     def sigma_min_resolved_deg(self) -> float:
-        """`sigma_min_deg`, or half a light texel when it is 0."""
-        return self.sigma_min_deg or 45.0 / self.cube_resolution
+        """`sigma_min_deg`, or when it is 0: half a light texel with `sampling: cube`,
+        LOBE_SIGMA_MIN_DEG with `sampling: lobe`."""
+        if self.sigma_min_deg:
+            return self.sigma_min_deg
+        return LOBE_SIGMA_MIN_DEG if self.sampling == "lobe" else 45.0 / self.cube_resolution
 
     def validate(self):
         if self.cube_resolution not in CUBE_RESOLUTIONS:
             raise ValueError(f"cube_resolution: must be one of {list(CUBE_RESOLUTIONS)}, got "
                              f"{self.cube_resolution}")
+        if self.sampling == "cube" and self.gaussians > 3:
+            raise ValueError("gaussians: `sampling: cube` fits 1–3 Gaussians per view")
         if not self.sigma_min_resolved_deg() < self.sigma_max_deg:
             raise ValueError("sigma_max_deg: must be larger than sigma_min_deg")

@@ -10,7 +10,7 @@
 
 #define TP_VIEWS 92
 #define TP_VIEW_FACES 180
-#define TP_MAX_K 3
+#define TP_MAX_K 4
 
 /* The three views around q and their weights (views.nearest_views): the first hull face whose
  * cone holds q (β = M⁻¹ q ≥ 0, M's columns the face's views), β clamped at 0 and normalised.
