@@ -206,6 +206,17 @@ def bowl_mesh(*, radius: float = 1.0, thickness: float = 0.15, n_phi: int = 64,
     return v, f, n
 
 
+def floor_grid_mesh(*, size: float = 4.0, cells: int = 40):
+    """A size × size square at y = 0 centred on the origin, cells × cells quads split in two,
+    normals +Y: a floor fine enough for per-vertex transport. Returns (vertices, faces,
+    normals)."""
+    x = np.linspace(-0.5 * size, 0.5 * size, cells + 1)
+    gx, gz = np.meshgrid(x, x, indexing="ij")
+    v = np.stack([gx, np.zeros_like(gx), gz], -1).reshape(-1, 3)
+    n = np.tile([0.0, 1.0, 0.0], (len(v), 1))
+    return v, _outward(v, _grid_faces(cells, cells, 0, False), n), n
+
+
 def _outward(v: np.ndarray, f: np.ndarray, n: np.ndarray) -> np.ndarray:
     """Faces wound counter-clockwise seen from their vertex normals' side; degenerate pole
     triangles (zero area) dropped."""

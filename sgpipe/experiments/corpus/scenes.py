@@ -26,7 +26,7 @@ NORMAL_MAP_SIZE = 256
 UNFILTERED = ("sg", "gmm", "fis")
 FILTERED = ("vmf", "nm_sh", "normals_mip", "toksvig", "engine_bake")
 #: slots whose shapes have few enough vertices for Green06's per-vertex transport
-TRANSPORT_SHAPES = ("sphere", "bowl")
+TRANSPORT_SHAPES = ("sphere", "bowl", "pair", "ball_floor")
 VISIBILITY = {"trace_resolution": 32, "resolution": 16, "pca_terms": 48,
               "sphere_subdivisions": 3, "report_vertices": 0, "preview_vertices": 0}
 #: transport reads the frame's triangles from the visibility stage: the same tessellation
@@ -36,7 +36,8 @@ TRANSPORT = {"report_vertices": 0, "sphere_subdivisions": VISIBILITY["sphere_sub
 @dataclasses.dataclass(frozen=True)
 class Slot:
     """One corpus cell: what is fixed; the seed draws the rest."""
-    shape: str                      # sphere, teapot, bowl, plane, grazing, nm_sphere
+    shape: str                      # sphere, teapot, bowl, plane, grazing, nm_sphere, pair,
+                                    # ball_floor
     env: str                        # lamps, sky, mixed, studio (data_samples), sky_sun (idem)
     material: str                   # a key of MATERIALS
     normal_map: str | None = None   # grooves, bumps, vgrooves
@@ -80,6 +81,11 @@ SLOTS = (
     Slot("nm_sphere", "sky", "nm_blinn_phong", "vgrooves", 16.0),
     Slot("nm_sphere", "studio", "nm_beckmann", "grooves", 1.0, "directional"),
     Slot("grazing", "mixed", "nm_beckmann", "vgrooves", 16.0),
+    # glossy neighbours: two spheres side by side, a ball on a floor of the same glossy material
+    Slot("pair", "lamps", "ggx_sharp"),
+    Slot("pair", "studio", "beckmann_diffuse"),
+    Slot("ball_floor", "sky", "beckmann_diffuse"),
+    Slot("ball_floor", "studio", "ggx_sharp"),
 )
 
 
@@ -93,11 +99,13 @@ def _colour(rng, lo, hi) -> list[float]:
 
 def draw_material(family: str, rng: np.random.Generator) -> dict:
     """A material dict (fit.materials entry) of `family` with seeded parameters: microfacet α
-    0.02–0.4 (log-uniform), anisotropy up to 20:1, a diffuse layer in the *_diffuse families;
+    0.02–0.4 (log-uniform; `*_sharp` 0.03–0.08), anisotropy up to 20:1, a diffuse layer in the *_diffuse families;
     nm_* families are the models the normal-map methods shade (Beckmann, Blinn–Phong)."""
     none = {"fresnel": "none"}
     if family in ("ggx", "beckmann"):
         p = {"alpha": round(_log_uniform(rng, 0.02, 0.4), 4), "ks": 0.9, **none}
+    elif family == "ggx_sharp":
+        p = {"alpha": round(_log_uniform(rng, 0.03, 0.08), 4), "ks": 0.9, **none}
     elif family in ("ggx_diffuse", "beckmann_diffuse"):
         p = {"alpha": round(_log_uniform(rng, 0.04, 0.4), 4),
              "ks": round(float(rng.uniform(0.3, 0.8)), 3), "kd": _colour(rng, 0.02, 0.5), **none}
@@ -121,7 +129,7 @@ def draw_material(family: str, rng: np.random.Generator) -> dict:
     else:
         raise ValueError(f"unknown material family {family!r}")
     model = {"nm_beckmann": "beckmann", "nm_blinn_phong": "blinn_phong",
-             "ward_aniso": "ward"}.get(family, family.split("_")[0])
+             "ward_aniso": "ward", "ggx_sharp": "ggx"}.get(family, family.split("_")[0])
     return {"name": "surface", "model": model, "params": p}
 
 
@@ -154,6 +162,23 @@ def _orbit(rng, target, distance, elev_lo, elev_hi, fov) -> dict:
            target[1] + distance * math.sin(el),
            target[2] + distance * math.cos(el) * math.cos(az)]
     return {"eye": [round(x, 5) for x in eye], "target": list(target), "fov_deg": fov}
+
+
+def _neighbours(slot: Slot, rng, work: Path) -> tuple[list[dict], dict]:
+    """(objects, camera) of the glossy-neighbour shapes: `pair`, two unit spheres 0.2 apart,
+    each half-hidden from the other's horizon; `ball_floor`, a ball of radius 0.6 resting on a
+    4 × 4 floor of 41² vertices (fine enough for per-vertex transport)."""
+    if slot.shape == "pair":
+        objs = [{"name": "surface", "sphere_radius": 1.0, "translate": [-1.1, 0.0, 0.0]},
+                {"name": "neighbour", "sphere_radius": 1.0, "translate": [1.1, 0.0, 0.0]}]
+        return objs, _orbit(rng, (0.0, 0.0, 0.0), 6.0, 0.0, 35.0, 40.0)
+    path = work / "meshes" / "floor_grid.obj"
+    if not path.is_file():
+        v, f, n = assets.floor_grid_mesh()
+        write_obj(path, v, f, normals=n)
+    objs = [{"name": "surface", "sphere_radius": 0.6, "translate": [0.0, 0.6, 0.0]},
+            {"name": "floor", "mesh": str(path)}]
+    return objs, _orbit(rng, (0.0, 0.35, 0.0), 3.6, 20.0, 45.0, 40.0)
 
 
 def _geometry(slot: Slot, rng, work: Path, size: int) -> tuple[dict, dict, bool]:
@@ -241,19 +266,26 @@ def scenes(seed: int, work: Path, *, size: int = 96, spp: int = 256,
         rng = np.random.default_rng([int(seed), i])
         mat = draw_material(slot.material, rng)
         env, exposure = _environment(slot, rng, work, f"s{seed}_{i:02d}_{slot.env}", env_height)
-        obj, cam, vis = _geometry(slot, rng, work, size)
+        if slot.shape in ("pair", "ball_floor"):
+            objs, cam = _neighbours(slot, rng, work)
+            vis = True
+            for o in objs:
+                o["material"] = "surface"
+        else:
+            obj, cam, vis = _geometry(slot, rng, work, size)
+            obj.update(name="surface", material="surface")
+            objs = [obj]
         nmap = _normal_map(slot, rng, work)
         cam.update(width=size, height=size)
-        obj.update(name="surface", material="surface")
         if nmap is not None:
-            obj["normal_map"] = str(nmap)
+            objs[0]["normal_map"] = str(nmap)
         methods = list(UNFILTERED)
         if nmap is not None:
             methods += list(FILTERED)
         elif slot.shape in TRANSPORT_SHAPES:
             methods.append("transport")
         cfg = {"name": f"corpus_s{seed}_{slot.key}", "seed": int(seed),
-               "scene": {"objects": [obj]},
+               "scene": {"objects": objs},
                "fit": {"materials": [mat]},
                "envmap": {"environment": str(env)},
                "render": {"camera": cam, "methods": ["reference"], "spp": spp,
