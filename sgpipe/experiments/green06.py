@@ -1,5 +1,6 @@
 """Green06's experiments (Fig 5, 6, 7, the §6.1 storage and timing table and the fidelity and
-speed targets of issue 17) through the real stages.
+speed targets of issue 17) through the real stages, with the transport as Green06 published it
+(`transport.sampling: cube`: eq 6 fitted on the light cube's texel centres).
 
     python -m sgpipe.experiments.green06 --out out/figures/green06 [--quick]
 
@@ -80,6 +81,7 @@ def run_scene(out: Path, env: str, *, gaussians: int, methods, size: int, spp: i
               extra: list[str] | None = None) -> dict:
     """One render of the floor scene: images, timings and the transport report."""
     ov = [f"envmap.environment={ENVS[env]}", f"transport.gaussians={gaussians}",
+          "transport.sampling=cube",
           f"render.methods={json.dumps(list(methods))}", f"render.spp={spp}",
           f"render.camera.width={size}", f"render.camera.height={size}",
           "render.baseline_shadows=false", "workers=0", *(extra or [])]
@@ -113,7 +115,8 @@ def _fit_sample(n_vertices: int) -> dict:
         p.write_text(f"name: teapot\nscene:\n  objects:\n    - {{name: teapot, mesh: "
                      f"{ROOT / 'data_samples' / 'teapot.obj'}, material: glossy}}\nfit:\n"
                      "  materials:\n    - {name: glossy, model: ggx, params: {alpha: 0.15, "
-                     "kd: 0.2, ks: 0.8}}\ntransport: {cube_resolution: 16, gaussians: 1}\n")
+                     "kd: 0.2, ks: 0.8}}\ntransport: {cube_resolution: 16, gaussians: 1, "
+                     "sampling: cube}\n")
         cfg = load_config(p)
         t = cfg.transport
         (g,) = load_scene(cfg.scene)
@@ -129,7 +132,8 @@ def _fit_sample(n_vertices: int) -> dict:
                              g.tangents[order], g.bitangents[order], [adj[i] for i in order],
                              "ggx", {"alpha": 0.15, "kd": 0.2, "ks": 0.8}, 16,
                              t.ray_offset * diag, opts,
-                             float(np.sin(np.radians(t.min_view_elevation_deg))))
+                             float(np.sin(np.radians(t.min_view_elevation_deg))), None,
+                             "cube")
         r = run_chunk(task)
     packed = compact.encode(r.mu, r.sigma, r.w, lo, hi)
     n = len(order)

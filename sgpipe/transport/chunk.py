@@ -88,7 +88,7 @@ class TransportTask:
     #: transport.indirect's paths, or None for direct transport only
     indirect: "IndirectOptions | None" = None
     #: "cube" (Green06's light-cube samples fitted by eq 6) or "lobe" (lobe_fit's moments)
-    sampling: str = "cube"
+    sampling: str = "lobe"
     #: lobe samples per view with sampling "lobe"
     lobe_samples: int = 128
 

@@ -1,8 +1,9 @@
 """The `transport` method end to end: the real fit, envmap, visibility and transport stages on
 a glossy GGX ball alone under the studio map (no occluders), rendered by `transport` and
 compared with the Monte Carlo reference by the render stage. The floor is set below the measured
-display PSNR of surface pixels; what limits it is the one-Gaussian fit (relative L2 error ~0.3
-per view, docs/GREEN06.md), not the renderer (tests/render/test_transport_render.py)."""
+display PSNR of surface pixels, with one Gaussian per view and with four (sub-lobes and a halo);
+what limits it is the Gaussians' fit of the lobe (docs/GREEN06.md), not the renderer
+(tests/render/test_transport_render.py)."""
 
 import json
 from pathlib import Path
@@ -17,12 +18,13 @@ from sgpipe.config import load_config
 pytestmark = [pytest.mark.opencl, pytest.mark.slow]
 DATA = Path(__file__).resolve().parents[2] / "data_samples"
 
-# measured 27.83 dB (48×48, 3×3 supersampled, 256 spp; the reference noise is below it)
-SURFACE_DISPLAY_PSNR_FLOOR = 26.5
+# per `transport.gaussians` (lobe sampling): measured 31.32 and 32.65 dB (48×48, 3×3
+# supersampled, 256 spp; the reference noise is below it); Green06's light-cube fit gave 27.83
+SURFACE_DISPLAY_PSNR_FLOOR = {1: 30.0, 4: 31.2}
 
 
-@pytest.fixture(scope="module")
-def rendered(tmp_path_factory):
+@pytest.fixture(scope="module", params=[1, 4], ids=["1gaussian", "4gaussians"])
+def rendered(tmp_path_factory, request):
     tmp = tmp_path_factory.mktemp("tpstage")
     out = tmp / "out"
     cfg = {
@@ -35,7 +37,8 @@ def rendered(tmp_path_factory):
         "envmap": {"environment": str(DATA / "studio.exr"), "cube_resolution": 64},
         "visibility": {"trace_resolution": 16, "resolution": 8, "pca_terms": 4,
                        "sphere_subdivisions": 2, "report_vertices": 0, "preview_vertices": 0},
-        "transport": {"cube_resolution": 8, "gaussians": 1, "sphere_subdivisions": 2},
+        "transport": {"cube_resolution": 8, "gaussians": request.param,
+                      "sphere_subdivisions": 2},
         "render": {"camera": {"eye": [0, 0.8, 3.6], "target": [0, 0, 0], "fov_deg": 38,
                               "width": 48, "height": 48},
                    "methods": ["transport", "reference"], "spp": 256, "supersample": 3,
@@ -55,7 +58,8 @@ def test_glossy_ball_agrees_with_the_reference(rendered):
     psnr = comp["surface"]["display_psnr_db"]
     print(f"transport vs reference: display {comp['display_psnr_db']:.2f} dB, "
           f"surfaces {psnr:.2f} dB")
-    assert psnr > SURFACE_DISPLAY_PSNR_FLOOR, psnr
+    k = load_config(rendered.parent / "c.yaml").transport.gaussians
+    assert psnr > SURFACE_DISPLAY_PSNR_FLOOR[k], psnr
 
 
 def test_kernel_renders_the_fitted_gaussians(rendered):
@@ -90,7 +94,7 @@ def test_kernel_renders_the_fitted_gaussians(rendered):
                       for v in faces[fr.tri[i]]]
         m, s, ww = blend_gaussians(*(np.array(a) for a in zip(*per_vertex)),
                                    np.array([1 - bc.sum(), bc[0], bc[1]]))
-        ref = np.exp((dirs @ m.T - 1) / s ** 2)[:, 0] @ Lw * ww[0]
+        ref = sum(np.exp((dirs @ m[k] - 1) / s[k] ** 2) @ Lw * ww[k] for k in range(len(s)))
         ratios.append(got[i] / ref)
     dev = np.abs(np.array(ratios) - 1)
     print(f"kernel vs interp.py + quadrature: median {np.median(dev):.4f}, "

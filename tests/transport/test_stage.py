@@ -106,7 +106,7 @@ def test_chunk_fits_sampled_transport_of_a_floor(tmp_path):
     opts = FitOptions(sigma_min=np.radians(45 / 16))
     task = TransportTask(None, order, P[order], np.tile(n, (9, 1)), np.tile(t, (9, 1)),
                          np.tile(b, (9, 1)), [adj[i] for i in order], "ward", params, 16, 1e-4,
-                         opts, np.sin(np.radians(1.0)))
+                         opts, np.sin(np.radians(1.0)), None, "cube")
     res = run_chunk(task)
     assert np.allclose(res.visible, 1.0)
     cube, views = light_cube(16), view_set()[0]
