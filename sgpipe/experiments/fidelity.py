@@ -139,9 +139,12 @@ def goal_misses(rows: list[dict]) -> list[str]:
 
 
 def merge_rows(old_rows: list[dict], new_rows: list[dict]) -> list[dict]:
-    """The old rows in their order, each replaced by the new row of the same seed and key."""
+    """The old rows in their order, each replaced by the new row of the same seed and key,
+    then the new rows of slots the old run did not have (in their corpus order)."""
     fresh = {(r["seed"], r["key"]): r for r in new_rows}
-    return [fresh.get((r["seed"], r["key"]), r) for r in old_rows]
+    seen = {(r["seed"], r["key"]) for r in old_rows}
+    return ([fresh.get((r["seed"], r["key"]), r) for r in old_rows]
+            + [r for r in new_rows if (r["seed"], r["key"]) not in seen])
 
 
 def _previous_rows(a) -> tuple[list, dict] | str:

@@ -60,14 +60,18 @@ def test_regenerate_line_names_the_report_file():
 
 
 def test_update_replaces_the_re_measured_rows_in_place():
-    """`--update`: the old rows keep their order; a re-measured (seed, key) replaces its row."""
+    """`--update`: the old rows keep their order; a re-measured (seed, key) replaces its row;
+    slots new to the corpus are added."""
     from sgpipe.experiments.fidelity import merge_rows
     new_c = _row("c", {"sg": 21.0, "vmf": 35.0}, normal_map="grooves")
     merged = merge_rows(ROWS, [new_c])
     assert [r["key"] for r in merged] == ["a", "b", "c"]
     assert merged[2] is new_c and merged[:2] == ROWS[:2]
+    # a (seed, key) the old run did not have replaces nothing and comes after the old rows
     other_seed = dict(new_c, seed=11)
-    assert merge_rows(ROWS, [other_seed]) == ROWS
+    new_slot = _row("d", {"sg": 30.0})
+    merged = merge_rows(ROWS, [new_slot, other_seed])
+    assert merged[:3] == ROWS and merged[3:] == [new_slot, other_seed]
 
 
 def test_update_refuses_without_scenes_or_with_another_run(tmp_path, capsys):
