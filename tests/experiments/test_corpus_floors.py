@@ -12,7 +12,10 @@ PSNR corrected for the reference's noise:
   silhouette): vmf (28.3 dB when each lobe's reflection was one isotropic SG);
 * `nm_sphere-sky-nm_blinn_phong-vgrooves16x` (v-grooves minified 16× on a UV sphere under a sky
   with a sun): vmf (28.4 dB with the sun through each lobe's SG); `sg` of the unfiltered map
-  below vmf's floor.
+  below vmf's floor;
+* `sphere-mixed-ward_aniso` (a sphere of anisotropic Ward, α up to 20:1, under a generated mixed
+  map): transport with its lobe-sampled Gaussians; Green06's light-cube fit
+  (`transport.sampling: cube`) must fall below the floor.
 
 Each floor sits below the raw (uncorrected) value measured at these settings and at least
 NOISE_MARGIN_DB under the reference's noise floor."""
@@ -43,6 +46,8 @@ VGROOVES_VMF_FLOOR_DB = 35.5
 SPHERE_LAMPS_VMF_FLOOR_DB = 34.0
 # measured vmf 31.9 dB (raw 31.2), sg of the unfiltered map 25.0; noise floor 39.0 dB
 SPHERE_SKY_VMF_FLOOR_DB = 30.5
+# measured transport 23.63 dB (raw 23.58), the light-cube fit 18.66; noise floor 42.8 dB
+WARD_ANISO_TRANSPORT_FLOOR_DB = 22.5
 
 
 def _scene(key: str, tmp: Path) -> dict:
@@ -101,3 +106,12 @@ def test_sphere_sky_vmf_floor_and_unfiltered_sg_below_it(tmp_path):
     r = measure(cfg, ("vmf", "sg"), spp=SPP, out=tmp_path / "run", quiet=True)
     _holds(r, "vmf", SPHERE_SKY_VMF_FLOOR_DB)
     assert _cell(r, "sg")["surface_display_psnr_db"] < SPHERE_SKY_VMF_FLOOR_DB
+
+
+def test_transport_lobe_floor_and_the_light_cube_fit_below_it(tmp_path):
+    cfg = _scene("sphere-mixed-ward_aniso", tmp_path)
+    r = measure(cfg, ("transport",), spp=SPP, out=tmp_path / "run", quiet=True)
+    _holds(r, "transport", WARD_ANISO_TRANSPORT_FLOOR_DB)
+    cube = measure(cfg, ("transport",), ("transport.sampling=cube",), spp=SPP,
+                   reference=r["reference"], out=tmp_path / "cube", quiet=True)
+    assert _cell(cube, "transport")["surface_display_psnr_db"] < WARD_ANISO_TRANSPORT_FLOOR_DB
