@@ -130,8 +130,10 @@ def main() -> int:
             print(f"sample: {r['vertices']} of the teapot's {r['model_vertices']} vertices "
                   f"(flood-fill order) on {os.cpu_count()} cores: wall {r['wall_s']:.1f} s, "
                   f"worker CPU {r['cpu_s']:.1f} s (transport {r['transport_s']:.1f} s, fit "
-                  f"{r['fit_s']:.1f} s), {r['iters']:.1f} LM iterations per vertex, "
-                  f"mean fit error {r['rel_err']:.3f}")
+                  f"{r['fit_s']:.1f} s), "
+                  + (f"{r['iters']:.1f} LM iterations per vertex, " if sampling == "cube"
+                     else "")
+                  + f"mean fit error {r['rel_err']:.3f}")
             print(f"storage: {r['bytes_per_vertex']:.0f} B per vertex compact vs the paper's "
                   f"{r['paper_bytes_per_vertex']} B "
                   f"({r['bytes_per_vertex'] / r['paper_bytes_per_vertex']:.3f})")
