@@ -1,5 +1,5 @@
 """`transport.sampling: lobe` — Green06 eq 2's transport sampled where the BRDF lobe is, and each
-view's Gaussian (eq 4, K = 1) set by the transport's moments.
+view's Gaussians (eq 4) set from those samples.
 
 The published fit (`sampling: cube`, `fit.py`) samples T_{x,v} at the centres of a fixed light
 cube, so a lobe narrower than a light texel (GGX α 0.08 at 6×16²: one texel is 5.6°) loses its
@@ -7,9 +7,9 @@ energy between the centres. Here every active view draws `n` directions from its
 lobe (the same stratified rank-1 lattice in (u1, u2) for every view and vertex, so the result is
 deterministic and smooth across views), traces one occlusion ray per direction, and weights it
 by f_s cos V / p. Each view's Gaussians G(ω) = exp((ω·μ − 1)/σ²) share the transport's mean
-direction μ and carry its integral (per colour channel) exactly; their σ (one lobe, or a core
-and a wider halo for long-tailed lobes) minimise the L2 distance to the transport under that
-constraint. Where a rim or a neighbour clips the lobe, the traced samples move μ into the
+direction μ and carry its integral (per colour channel) exactly; their σ (one lobe, a core and
+a wider halo for long-tailed lobes, three sub-lobes along a stretched lobe, or both) minimise
+the L2 distance to the transport under that constraint. Where a rim or a neighbour clips the lobe, the traced samples move μ into the
 visible part and narrow σ; the integral stays the visible transport's. Paths of
 `transport.indirect` that leave the scene join the samples with their throughputs (eq 5), so
 T^IG enters the same integral and mean.
@@ -106,7 +106,9 @@ def _sg_product_integral(mu1, s1, mu2, s2):
     r = ‖λ1 μ1 + λ2 μ2‖, λ = 1/σ² (the SG inner product)."""
     l1, l2 = 1.0 / np.asarray(s1, float) ** 2, 1.0 / np.asarray(s2, float) ** 2
     r = np.linalg.norm(l1[..., None] * mu1 + l2[..., None] * mu2, axis=-1)
-    return 2.0 * np.pi * np.exp(r - l1 - l2) * -np.expm1(-2.0 * r) / r
+    # (1 − e^{−2r}) / r → 2 as r → 0 (equal lobes pointing apart)
+    ratio = np.where(r > 1e-12, -np.expm1(-2.0 * r) / np.maximum(r, 1e-12), 2.0)
+    return 2.0 * np.pi * np.exp(r - l1 - l2) * ratio
 
 
 def _self_integral(s1, s2):
@@ -147,7 +149,7 @@ def _best_shapes(c, lum, E, grid, k: int):
     return np.stack([i1[best], i2[best]], -1), t[rows, best]
 
 
-#: the largest spacing of `sublobe` offsets, in units of the sub-lobes' σ (beyond it three
+#: the largest offset of the outer sub-lobes, in units of the sub-lobes' σ (beyond it three
 #: Gaussians no longer sum to one hump)
 MAX_SUBLOBE_OFFSET = 2.0
 
