@@ -9,8 +9,9 @@ deterministic and smooth across views), traces one occlusion ray per direction, 
 by f_s cos V / p. Each view's Gaussians G(ω) = exp((ω·μ − 1)/σ²) share the transport's mean
 direction μ and carry its integral (per colour channel) exactly; their σ (one lobe, a core and
 a wider halo for long-tailed lobes, three sub-lobes along a stretched lobe, or both) minimise
-the L2 distance to the transport under that constraint. Where a rim or a neighbour clips the lobe, the traced samples move μ into the
-visible part and narrow σ; the integral stays the visible transport's. Paths of
+the L2 distance to the transport under that constraint. Where a rim or a neighbour clips the
+lobe, the traced samples move μ into the visible part and narrow σ; the integral stays the
+visible transport's. Paths of
 `transport.indirect` that leave the scene join the samples with their throughputs (eq 5), so
 T^IG enters the same integral and mean.
 """

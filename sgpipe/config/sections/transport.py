@@ -18,13 +18,13 @@ class TransportSection:
     """Per-vertex, per-view transport of the objects of `scene:` fitted with Gaussians
     (Green06 §4). Materials come from `fit.materials` (the objects' `material`)."""
 
-    sampling: Literal["lobe", "cube"] = doc("Where the glossy transport is sampled and how each view's "
-                        "Gaussians are found. `lobe`: `lobe_samples` directions drawn from "
-                        "each view's specular lobe, shadowed by traced rays, one Gaussian per "
-                        "view with the transport's integral, mean direction and spread "
-                        "(any lobe width keeps its energy). `cube`: Green06 as published, the "
-                        "transport at the light cube's texel centres fitted by eq 6 "
-                        "(Levenberg–Marquardt; 1–3 Gaussians).", "lobe")
+    sampling: Literal["lobe", "cube"] = doc(
+        "Where the glossy transport is sampled and how each view's Gaussians are found. "
+        "`lobe`: `lobe_samples` directions drawn from each view's specular lobe, shadowed by "
+        "traced rays; the view's Gaussians carry the transport's integral about its mean "
+        "direction with the L2-closest spread (any lobe width keeps its energy). `cube`: "
+        "Green06 as published, the transport at the light cube's texel centres fitted by eq 6 "
+        "(Levenberg–Marquardt; 1–3 Gaussians).", "lobe")
     lobe_samples: int = doc("With `sampling: lobe`: specular-lobe directions per vertex and "
                             "view (one occlusion ray each).", 128, ge=8, le=4096)
     cube_resolution: int = doc("Face resolution of the light cubemap (6·res² light texels; "

@@ -99,8 +99,9 @@ def _colour(rng, lo, hi) -> list[float]:
 
 def draw_material(family: str, rng: np.random.Generator) -> dict:
     """A material dict (fit.materials entry) of `family` with seeded parameters: microfacet α
-    0.02–0.4 (log-uniform; `*_sharp` 0.03–0.08), anisotropy up to 20:1, a diffuse layer in the *_diffuse families;
-    nm_* families are the models the normal-map methods shade (Beckmann, Blinn–Phong)."""
+    0.02–0.4 (log-uniform; `*_sharp` 0.03–0.08), anisotropy up to 20:1, a diffuse layer in the
+    *_diffuse families; nm_* families are the models the normal-map methods shade (Beckmann,
+    Blinn–Phong)."""
     none = {"fresnel": "none"}
     if family in ("ggx", "beckmann"):
         p = {"alpha": round(_log_uniform(rng, 0.02, 0.4), 4), "ks": 0.9, **none}
