@@ -13,8 +13,9 @@ from sgpipe.stages.base import resolved_config
 
 def upstream_difference(cfg, out_dir: Path, stage: str, sections: tuple[str, ...]) -> str | None:
     """Where this config differs from the one OUT/<stage> was made with, in the `sections`
-    (dotted paths; `*` takes every element of a list) that stage computes from: 'KEY: OLD -> NEW' for the first difference,
-    None when they agree (or the folder records no config)."""
+    (dotted paths; `*` takes every element of a list) that stage computes from:
+    'KEY: OLD -> NEW' for the first difference, None when they agree (or the folder records no
+    config)."""
     path = Path(out_dir) / stage / "config.resolved.yaml"
     try:
         old = yaml.safe_load(path.read_text())

@@ -87,7 +87,7 @@ class TransportTask:
     min_cos: float = 0.0
     #: transport.indirect's paths, or None for direct transport only
     indirect: "IndirectOptions | None" = None
-    #: "cube" (Green06's light-cube samples fitted by eq 6) or "lobe" (lobe_fit's moments)
+    #: "cube" (Green06's light-cube samples fitted by eq 6) or "lobe" (lobe_fit's samples)
     sampling: str = "lobe"
     #: lobe samples per view with sampling "lobe"
     lobe_samples: int = 128
@@ -145,12 +145,14 @@ def run_chunk(task: TransportTask) -> TransportResult:
         t0 = time.perf_counter()
         nrm, tan, bit = task.normals[i], task.tangents[i], task.bitangents[i]
         vis = vertex_visibility(scene, task.positions[i], nrm, cube.dirs, task.offset)
+        res.sh[i] = transfer_vector(basis, cube, nrm, vis)
+        up = cube.dirs @ nrm > 0
+        res.visible[i] = vis[up].mean() if up.any() else 0.0
         if task.sampling == "lobe":
-            _fit_lobe_vertex(task, i, scene, brdf, views, cube, basis, vis, res)
+            _fit_lobe_vertex(task, i, scene, brdf, views, cube, vis, res)
             res.transport_s += time.perf_counter() - t0
             continue
         T, active = vertex_transport(brdf, nrm, tan, bit, views, cube, vis, task.min_cos)
-        res.sh[i] = transfer_vector(basis, cube, nrm, vis)
         if ind is not None:
             rng = ind.vertex_rng(task.order[i])
             T = T + vertex_indirect_transport(ind.scene, brdf, task.positions[i], nrm, tan, bit,
@@ -159,8 +161,6 @@ def run_chunk(task: TransportTask) -> TransportResult:
             res.sh_indirect[i] = interreflected_transfer(
                 ind.scene, cube, task.positions[i], nrm, vis, paths=ind.transfer_paths,
                 bounces=ind.bounces, offset=task.offset, rng=rng)
-        up = cube.dirs @ nrm > 0
-        res.visible[i] = vis[up].mean() if up.any() else 0.0
         t1 = time.perf_counter()
         if negligible_transport(T[active]):
             # no glossy transport at all (a diffuse material, a fully shadowed vertex, only a
@@ -191,17 +191,14 @@ def run_chunk(task: TransportTask) -> TransportResult:
     return res
 
 
-def _fit_lobe_vertex(task: TransportTask, i: int, scene, brdf, views, cube, basis, vis,
+def _fit_lobe_vertex(task: TransportTask, i: int, scene, brdf, views, cube, vis,
                      res: TransportResult) -> None:
-    """Row i of `res` by `transport.sampling: lobe` (lobe_fit): the view's specular-lobe
-    samples, shadowed by traced rays (plus the indirect paths' exits), one Gaussian per view
-    by moments; the SH transfer from the light cube's visibility as with `cube`."""
+    """Row i's Gaussians by `transport.sampling: lobe` (lobe_fit): each view's specular-lobe
+    samples, shadowed by traced rays (plus the indirect paths' exits), set the view's
+    Gaussians (`lobe_gaussians`); with indirect, also the interreflected SH transfer."""
     nrm, tan, bit, pos = task.normals[i], task.tangents[i], task.bitangents[i], task.positions[i]
     active = views @ nrm > EXTRAPOLATE_COS
     fit_views = raised_views(views, nrm, tan, task.min_cos)
-    res.sh[i] = transfer_vector(basis, cube, nrm, vis)
-    up = cube.dirs @ nrm > 0
-    res.visible[i] = vis[up].mean() if up.any() else 0.0
     res.mu[i], res.sigma[i] = views[:, None, :], task.opts.sigma_max
     if not brdf.has_specular or not active.any():
         return
@@ -228,9 +225,8 @@ def _fit_lobe_vertex(task: TransportTask, i: int, scene, brdf, views, cube, basi
     res.mu[i], res.sigma[i], res.w[i] = mu, sig, w
     # over the direct samples (the indirect exits' density is not known) of the views above
     # the horizon (not the raised ones)
-    above = (views @ nrm > task.min_cos)[active]
-    full = np.zeros(len(views), bool)
-    full[np.flatnonzero(active)[above]] = True
+    full = active & (views @ nrm > task.min_cos)
+    above = full[active]
     res.rel_err[i] = sample_error(dirs[above], wgt[above], q[above], mu, sig, w, full)
     res.fitted += 1
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from sgpipe.core.sphere import to_local, to_world
 from sgpipe.transport.interp import lobe_area
-from sgpipe.visibility.trace import occluded
+from sgpipe.transport.sampling import vertex_visibility
 
 #: 1/φ, the golden-ratio step of the rank-1 lattice
 _INV_PHI = (np.sqrt(5.0) - 1.0) / 2.0
@@ -80,19 +80,15 @@ def lobe_samples(brdf, normal, tangent, bitangent, views, active, n: int):
 
 
 def shadow_samples(scene, position, normal, dirs, wgt, offset: float) -> np.ndarray:
-    """The weights with occluded directions zeroed: one Embree occlusion ray per sample that
-    carries weight, from `offset` along the normal (as the light cube's visibility)."""
-    if scene is None:
-        return wgt
+    """The weights with occluded directions zeroed: the light cube's `vertex_visibility` (one
+    Embree occlusion ray from `offset` along the normal) for every sample that carries
+    weight."""
     live = np.flatnonzero((wgt > 0).any(-1).ravel())
-    if not len(live):
+    if scene is None or not len(live):
         return wgt
-    o = (np.asarray(position, np.float64) + offset * np.asarray(normal, np.float64))
-    d = dirs.reshape(-1, 3)[live]
-    hit = occluded(scene, np.broadcast_to(o.astype(np.float32), d.shape).copy(),
-                   np.ascontiguousarray(d, np.float32))
     out = wgt.reshape(-1, 3).copy()
-    out[live[hit]] = 0.0
+    seen = vertex_visibility(scene, position, normal, dirs.reshape(-1, 3)[live], offset)
+    out[live[~seen]] = 0.0
     return out.reshape(wgt.shape)
 
 
