@@ -87,6 +87,12 @@ def spherical_em_batch(x, weights, n_lobes: int = 8, *, features=None, max_iter:
     kappa = np.empty((n_j, n_lobes))
     ll = np.zeros(n_j)
     it = np.zeros(n_j, dtype=np.int64)
-    em_vmf_batch(x, w, y, alpha, mu, kappa, int(max_iter), float(tol), float(kappa_max), y_out,
-                 ll, it, True)
+    # one numba call per group of `threads` views: a signal is handled between calls, so
+    # Ctrl-C ends a long fit within one group's time instead of the whole batch's
+    import numba
+    step = max(1, numba.get_num_threads())
+    for s in range(0, n_j, step):
+        e = min(s + step, n_j)
+        em_vmf_batch(x[s:e], w[s:e], y[s:e], alpha[s:e], mu[s:e], kappa[s:e], int(max_iter),
+                     float(tol), float(kappa_max), y_out[s:e], ll[s:e], it[s:e], True)
     return VMFMixture(alpha, mu, kappa, ll, it, None if features is None else y_out)

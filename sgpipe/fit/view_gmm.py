@@ -61,8 +61,11 @@ def _thread_map(fn, items):
     n = max(1, min(numba.get_num_threads(), len(items)))
     if n == 1:
         return [fn(it) for it in items]
-    with ThreadPoolExecutor(max_workers=n) as ex:
+    ex = ThreadPoolExecutor(max_workers=n)
+    try:
         return list(ex.map(fn, items))
+    finally:       # on Ctrl-C drop the queued items: only the running ones are waited for
+        ex.shutdown(wait=True, cancel_futures=True)
 
 
 def view_grid(n_theta: int, n_phi: int, theta_max: float):
@@ -92,7 +95,9 @@ def draw_samples(brdf, dirs, n_samples: int, seed: int, include_diffuse: bool):
     The (u1, u2) are scrambled Sobol points (one independent scramble per view): their even
     spread removes most of the sampling noise that plain random samples leave in EM fits."""
     n_j = dirs.shape[0]
-    chunks = [(s, min(s + 8, n_j)) for s in range(0, n_j, 8)]
+    # about 2^16 samples per thread task: Ctrl-C waits only for the tasks already running
+    step = max(1, min(8, 65536 // max(n_samples, 1)))
+    chunks = [(s, min(s + step, n_j)) for s in range(0, n_j, step)]
     parts = _thread_map(lambda c: _draw_chunk(brdf, dirs[c[0]:c[1]], n_samples, seed, c[0],
                                               include_diffuse), chunks)
     x, w, y = (np.concatenate([p[k] for p in parts]) for k in range(3))
