@@ -21,6 +21,7 @@ Models (REGISTRY keys) and parameters (RGB values accept a number or [r, g, b]):
   lambert(kd) · blinn_phong(exponent, kd, ks, fresnel…) · cook_torrance(m, kd, ks, fresnel…)
   ward(alpha | alpha_u+alpha_v, kd, ks) · ashikhmin_shirley(nu, nv, rs, rd, ks)
   beckmann / ggx(alpha | alpha_u+alpha_v, kd, ks, fresnel…)
+  gltf_pbr(base_color, metallic, roughness, anisotropy): glTF 2.0 metal-rough (Appendix B)
   fresnel: none | schlick(f0) | conductor(eta, k) | dielectric(eta)  (Wang09 eq 14)
   merl(merl_file, eta=1.33): MERL table + Wang09 eq 13 tabulated microfacet fit.
 Bad parameters raise `BRDFParamError(param, message)` (a ValueError naming the parameter).
@@ -33,7 +34,7 @@ from sgpipe.brdf.fresnel import (Fresnel, fresnel_conductor, fresnel_dielectric,
                                  fresnel_schlick)
 from sgpipe.brdf.merl import read_merl, synthesize_merl, write_merl
 from sgpipe.brdf.models import (BRDFParamError, ashikhmin_shirley, beckmann, blinn_phong,
-                                cook_torrance, ggx, lambert, ward)
+                                cook_torrance, ggx, gltf_pbr, lambert, ward)
 from sgpipe.brdf.tabulated import MerlBRDF, fit_tabulated, load_merl, tabulated_brdf
 
 
@@ -60,6 +61,7 @@ REGISTRY = {
     "ashikhmin_shirley": ashikhmin_shirley,
     "beckmann": beckmann,
     "ggx": ggx,
+    "gltf_pbr": gltf_pbr,
     "merl": _merl,
 }
 

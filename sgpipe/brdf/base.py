@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from sgpipe.brdf.fresnel import Fresnel
+from sgpipe.brdf.fresnel import Fresnel, fresnel_schlick
 from sgpipe.brdf.ndf import NDF
 from sgpipe.brdf.shadowing import Shadowing
 
-DIFFUSE_CODES = {"lambert": 0, "ashikhmin_shirley": 1, "none": 2}
+DIFFUSE_CODES = {"lambert": 0, "ashikhmin_shirley": 1, "none": 2, "gltf": 3}
+#: F0 of the glTF metal-rough dielectric (IOR 1.5) that weights its diffuse by 1 − F(o·h)
+GLTF_DIELECTRIC_F0 = 0.04
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -70,6 +72,10 @@ class BRDF:
             return np.zeros(np.broadcast_shapes(ci.shape, co.shape) + (3,))
         if self.diffuse_kind == "lambert":
             return np.where(up[..., None], self.kd / np.pi, 0.0)
+        if self.diffuse_kind == "gltf":      # glTF 2.0 Appendix B fresnel_mix: (1 − F) c/π
+            oh = np.abs(_dot(o, half_vector(o, i)))
+            w = 1.0 - fresnel_schlick(oh, GLTF_DIELECTRIC_F0)
+            return np.where(up[..., None], self.kd / np.pi * w, 0.0)
         f0 = self.fresnel.f0
         fi = 1.0 - (1.0 - np.maximum(ci, 0.0) / 2.0) ** 5
         fo = 1.0 - (1.0 - np.maximum(co, 0.0) / 2.0) ** 5

@@ -9,7 +9,8 @@ import numpy as np
 from scipy.special import erf
 
 SHADOWING_CODES = {"none": 0, "implicit": 1, "cook_torrance": 2, "smith_ggx": 3,
-                   "smith_beckmann": 4, "ward": 5, "ashikhmin_shirley": 6, "tabulated": 7}
+                   "smith_beckmann": 4, "ward": 5, "ashikhmin_shirley": 6, "tabulated": 7,
+                   "smith_ggx_correlated": 8}
 
 #: Bin centres of tabulated shadowing S(θ): 90 uniform bins over [0, π/2) (Wang09 §4.2).
 SHADOW_THETA = (np.arange(90) + 0.5) * (np.pi / 180.0)
@@ -42,6 +43,14 @@ def smith_g1_beckmann(v, au, av):
     lam = 0.5 * (erf(a_s) - 1.0) + np.exp(-a_s * a_s) / (2.0 * a_s * np.sqrt(np.pi))
     lam = np.where(a >= 30.0, 0.0, np.maximum(lam, 0.0))
     return np.where(v[..., 2] > 0, 1.0 / (1.0 + lam), 0.0)
+
+
+def smith_g2_ggx_correlated(o, i, au, av):
+    """Height-correlated GGX Smith G2 = 1/(1 + Λ(o) + Λ(i)), Λ(v) = (√(1 + a_v² tan²θ_v) − 1)/2
+    (glTF 2.0 Appendix B's V_GGX = G2/(4 |n·i| |n·o|))."""
+    so = np.sqrt(1.0 + _proj_alpha2(o, au, av) * _tan2(o))
+    si = np.sqrt(1.0 + _proj_alpha2(i, au, av) * _tan2(i))
+    return np.where((o[..., 2] > 0) & (i[..., 2] > 0), 2.0 / (so + si), 0.0)
 
 
 class Shadowing:
@@ -78,6 +87,8 @@ class Shadowing:
             return np.minimum(1.0, np.minimum(2.0 * nh * co / oh, 2.0 * nh * ci / oh))
         if k == "smith_ggx":
             return smith_g1_ggx(o, self.au, self.av) * smith_g1_ggx(i, self.au, self.av)
+        if k == "smith_ggx_correlated":
+            return smith_g2_ggx_correlated(o, i, self.au, self.av)
         if k == "smith_beckmann":
             return smith_g1_beckmann(o, self.au, self.av) * smith_g1_beckmann(i, self.au, self.av)
         if k == "ward":

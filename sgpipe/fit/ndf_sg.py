@@ -106,8 +106,11 @@ def fit_iso_lm(cos_t, values, weights, n_lobes: int, lam0: float) -> tuple[np.nd
     sw = np.sqrt(weights)
 
     def res(p):
-        e, _, mu = _iso_model(p, cos_t)
-        return sw * (e @ mu - values)
+        # a trial step can overflow e^p for very sharp NDFs: its residual is then not finite
+        # and Levenberg–Marquardt rejects the step, so the overflow is not worth a warning
+        with np.errstate(over="ignore", invalid="ignore"):
+            e, _, mu = _iso_model(p, cos_t)
+            return sw * (e @ mu - values)
 
     def jac(p):
         e, lam, mu = _iso_model(p, cos_t)

@@ -21,12 +21,12 @@ class MaterialSlot(IntEnum):
     KD = 0            # diffuse colour (RGB, 3 slots)
     KS = 3            # specular colour (RGB)
     GSCALE = 6        # g_scale of M_o
-    DIFFUSE = 7       # 0 lambert, 1 ashikhmin_shirley, 2 none
+    DIFFUSE = 7       # 0 lambert, 1 ashikhmin_shirley, 2 none, 3 gltf
     FRESNEL = 8       # 0 none, 1 schlick, 2 conductor, 3 dielectric
     F0 = 9            # Schlick F0 (RGB)
     ETA = 12          # index of refraction (RGB)
     K = 15            # conductor absorption (RGB)
-    SHADOW = 18       # G2 kind 0..7 (microfacet.h mf_g2)
+    SHADOW = 18       # G2 kind 0..8 (microfacet.h mf_g2)
     AU = 19           # roughness along t
     AV = 20           # roughness along b
     NLOBES = 21       # NDF SG lobes (ndf_sg.npz)

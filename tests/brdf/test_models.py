@@ -24,7 +24,7 @@ CI, CO, CH = I[:, 2], O[:, 2], H[:, 2]
 
 def test_registry_has_every_model():
     assert {"lambert", "blinn_phong", "cook_torrance", "ward", "ashikhmin_shirley", "beckmann",
-            "ggx", "merl"} <= set(REGISTRY)
+            "ggx", "gltf_pbr", "merl"} <= set(REGISTRY)
 
 
 def test_ggx_closed_form():

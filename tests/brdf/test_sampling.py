@@ -19,6 +19,7 @@ CASES = [
     ("beckmann", {"alpha_u": 0.2, "alpha_v": 0.5}),
     ("ggx", {"alpha": 0.15, "kd": 0.1}),
     ("ggx", {"alpha_u": 0.1, "alpha_v": 0.4, "fresnel": "conductor"}),
+    ("gltf_pbr", {"base_color": [0.7, 0.5, 0.3], "metallic": 0.3, "roughness": 0.45}),
 ]
 O = np.array([np.sin(0.7) * np.cos(0.5), np.sin(0.7) * np.sin(0.5), np.cos(0.7)])
 P_MIN = 1e-3   # one failure in 1000 by chance per test: the suite stays deterministic (seeded)

@@ -167,6 +167,8 @@ def test_ssdf_decode_matches_visibility_reference():
     ("ashikhmin_shirley", {"nu": 50, "nv": 200, "rd": 0.4, "rs": 0.05}),
     ("beckmann", {"alpha": 0.3, "ks": 0.5, "fresnel": "conductor"}),
     ("ward", {"alpha": 0.15, "kd": 0.2}),
+    ("gltf_pbr", {"base_color": [0.8, 0.5, 0.3], "metallic": 0.4, "roughness": 0.35,
+                  "anisotropy": 0.5}),
 ])
 def test_microfacet_factor_matches_brdf_package(model, params):
     brdf_mod = pytest.importorskip("sgpipe.brdf")

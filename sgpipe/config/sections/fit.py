@@ -18,7 +18,9 @@ class MaterialSpec:
     name: str = doc("Material name (referenced by scene objects); also the folder "
                     "<out>/fit/<name>/. Letters, digits, '_', '-', '.'.")
     model: str = doc("BRDF model: lambert, blinn_phong, cook_torrance, ward, "
-                     "ashikhmin_shirley, beckmann, ggx, merl (see sgpipe.brdf).", "lambert")
+                     "ashikhmin_shirley, beckmann, ggx, gltf_pbr (glTF 2.0 metal-rough: "
+                     "base_color, metallic, roughness, anisotropy), merl (see sgpipe.brdf).",
+                     "lambert")
     params: dict[str, Any] = doc("Model parameters, e.g. {alpha: 0.1, kd: [0.2, 0.1, 0.05], "
                                  "ks: 0.9, fresnel: schlick, f0: 0.04}.", default_factory=dict)
     merl_file: InputPath | None = doc("MERL .binary file (model: merl).", None)

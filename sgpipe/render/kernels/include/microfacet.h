@@ -84,6 +84,7 @@ inline float mf_g2(__global const float *m, __global const float *tables, float3
     if (kind == 5) return sqrt(ni * no);
     if (kind == 6) return ni * no / (fmax(dot(o, h), 1e-6f) * fmax(ni, no));
     if (kind == 7) { __global const float *t = tables + (int)m[MAT_STAB]; return shadow_table(t, ni) * shadow_table(t, no); }
+    if (kind == 8) return 2.0f / (sqrt(1.0f + smith_a2tan2(o, m[MAT_AU], m[MAT_AV])) + sqrt(1.0f + smith_a2tan2(i, m[MAT_AU], m[MAT_AV])));
     return 1.0f;
 }
 
@@ -106,6 +107,11 @@ inline float3 mf_diffuse(__global const float *m, float3 kd, float3 o, float3 i)
         float a = 1.0f - 0.5f * i.z, b = 1.0f - 0.5f * o.z;
         float a5 = a * a * a * a * a, b5 = b * b * b * b * b;
         return kd * (28.0f / (23.0f * 3.14159265358979f)) * (1.0f - f0) * (1.0f - a5) * (1.0f - b5);
+    }
+    if (kind == 3) {   /* glTF metal-rough: the dielectric's diffuse under its F0 0.04 coat */
+        float x = 1.0f - clamp(fabs(dot(o, normalize(o + i))), 0.0f, 1.0f);
+        float x2 = x * x;
+        return kd * MF_INV_PI * (0.96f * (1.0f - x2 * x2 * x));
     }
     return kd * MF_INV_PI;
 }
