@@ -143,4 +143,6 @@ def load_config(path: str | Path, overrides: tuple[str, ...] | list[str] = ()):
         apply_override(data, ov, path)
     cfg = build(Config, data, (), Context(file=path, lines=lines))
     cfg.source = path
+    from sgpipe.config.gltf_scene import expand_gltf
+    expand_gltf(cfg)
     return cfg

@@ -237,6 +237,40 @@ def _read_mesh_file(path: Path, key: str | None):
     return P, F, N, UV
 
 
+def _read_gltf_primitives(path: Path, node: int | None, primitive: int | None, key: str):
+    """Positions, faces, normals, uvs|None of a glTF file's primitives in its scene's world
+    space: all of them, or one node's (one primitive of it), concatenated (sgpipe.io.gltf)."""
+    from sgpipe.io.gltf import primitive_geometry, read_gltf
+    try:
+        asset = read_gltf(path)
+        refs = [r for r in asset.primitives if node is None or (
+            r.node == node and (primitive is None or r.primitive == primitive))]
+        parts = [primitive_geometry(asset, r) for r in refs]
+    except BadInput as e:        # the config key, and the glTF element in the message
+        raise BadInput(f"{e.key}: {e.message}" if e.key else e.message, file=e.file,
+                       key=key) from None
+    if not refs:
+        what = "no triangle primitive" if node is None else (
+            f"no primitive {primitive} of node {node}" if primitive is not None
+            else f"node {node} has no triangle primitive")
+        raise BadInput(what, file=path, key=key)
+    off = np.cumsum([0] + [len(p["positions"]) for p in parts])[:-1]
+    P = np.concatenate([p["positions"] for p in parts])
+    F = np.concatenate([p["faces"] + o for p, o in zip(parts, off)])
+    N = np.concatenate([p["normals"] for p in parts])
+    UV = (np.concatenate([p["uvs"] for p in parts])
+          if all(p["uvs"] is not None for p in parts) else None)
+    return P, F, N, UV
+
+
+def object_files(obj) -> list[Path]:
+    """The files an object's geometry is read from: its mesh, and a `.gltf`'s buffers."""
+    if obj.mesh is None:
+        return []
+    from sgpipe.io.gltf import companion_files
+    return [Path(obj.mesh), *companion_files(obj.mesh)]
+
+
 def sphere_mesh(radius: float, subdivisions: int):
     """Icosphere (positions, faces, exact normals) of an analytic sphere object."""
     import trimesh
@@ -251,7 +285,11 @@ def load_object(obj, index: int = 0, *, sphere_subdivisions: int = 4) -> MeshGeo
     M = object_matrix(obj.translate, obj.rotate_deg, obj.scale)
     if obj.mesh is not None:
         key = f"scene.objects.{index}.mesh"
-        P, F, N, UV = _read_mesh_file(Path(obj.mesh), key)
+        if str(obj.mesh).lower().endswith((".gltf", ".glb")):
+            P, F, N, UV = _read_gltf_primitives(Path(obj.mesh), obj.gltf_node,
+                                                obj.gltf_primitive, key)
+        else:
+            P, F, N, UV = _read_mesh_file(Path(obj.mesh), key)
         P, N = _transform(M, P, N)   # NaN stays NaN: build_mesh reports it
         return build_mesh(P, F, normals=N, uvs=UV, name=obj.name, material=obj.material,
                           source=str(obj.mesh), key=key)

@@ -18,6 +18,7 @@ import numpy as np
 from sgpipe.artifacts import render as art
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
+from sgpipe.io.mesh import object_files
 from sgpipe.stages.base import StageRun, log
 from sgpipe.stages.upstream import upstream_difference
 
@@ -36,7 +37,7 @@ def _inputs(cfg, out_dir: Path) -> list[Path]:
              for s in ("fit", "envmap", "visibility", "transport", "normalmap")
              if getattr(cfg, s) is not None]
     for o in cfg.scene.objects if cfg.scene is not None else []:
-        files += [Path(p) for p in (o.mesh, o.normal_map) if p]
+        files += object_files(o) + ([Path(o.normal_map)] if o.normal_map else [])
     for t in cfg.render.material_textures:
         files += [Path(p) for p in (t.kd_map, t.ks_map) if p]
     if cfg.envmap is not None:

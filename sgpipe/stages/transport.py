@@ -14,7 +14,7 @@ from sgpipe.artifacts import transport as artifacts
 from sgpipe.brdf import REGISTRY, BRDFParamError, brdf_from_spec
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
-from sgpipe.io.mesh import load_scene
+from sgpipe.io.mesh import load_scene, object_files
 from sgpipe.parallel import map_chunks
 from sgpipe.stages.base import StageRun, log
 from sgpipe.transport import compact
@@ -37,7 +37,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     geoms = load_scene(cfg.scene, sphere_subdivisions=t.sphere_subdivisions)
     _check_meshes(cfg, geoms)
     materials = [_material(cfg, i, o.material) for i, o in enumerate(cfg.scene.objects)]
-    inputs = [o.mesh for o in cfg.scene.objects if o.mesh is not None]
+    inputs = [f for o in cfg.scene.objects for f in object_files(o)]
     inputs += [m.merl_file for m in (cfg.fit.materials if cfg.fit else []) if m.merl_file]
     params = {"transport": to_plain(t), "scene": to_plain(cfg.scene),
               "materials": [to_plain(m[0]) for m in materials]}

@@ -12,7 +12,7 @@ from sgpipe.artifacts import visibility as artifacts
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
 from sgpipe.io.disk import allocated_memmap
-from sgpipe.io.mesh import MeshGeometry, load_scene
+from sgpipe.io.mesh import MeshGeometry, load_scene, object_files
 from sgpipe.parallel import chunk_ranges, map_chunks
 from sgpipe.stages.base import StageRun, log
 from sgpipe.visibility import report as vreport
@@ -30,7 +30,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
         raise BadInput("the visibility stage needs a `scene:` with at least one object",
                        file=cfg.source, key="scene.objects")
     out_dir = Path(out_dir)
-    inputs = [o.mesh for o in cfg.scene.objects if o.mesh is not None]
+    inputs = [f for o in cfg.scene.objects for f in object_files(o)]
     params = {"visibility": to_plain(cfg.visibility), "scene": to_plain(cfg.scene)}
     with StageRun(cfg, out_dir, "visibility", params=params, inputs=inputs, force=force) as run:
         if run.skipped:

@@ -97,11 +97,21 @@ def _read_obj(p):
     _read_mesh_file(p, "scene.objects.0.mesh")
 
 
+def _read_glb(p):
+    from sgpipe.io.mesh import _read_gltf_primitives
+    _read_gltf_primitives(p, None, None, "scene.objects.0.mesh")
+
+
 def _valid(kind: str) -> bytes:
     """A small valid file of `kind`, for mutation."""
     with tempfile.TemporaryDirectory() as d:
         if kind == "obj":
             return b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1\n"
+        if kind == "glb":
+            import sys
+            sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scene"))
+            import gltf_builder
+            return gltf_builder.write_glb(gltf_builder.build(), Path(d) / "v.glb").read_bytes()
         p = Path(d) / f"v.{kind}"
         img = np.linspace(0, 1, 4 * 8 * 3, dtype=np.float32).reshape(4, 8, 3)
         if kind == "exr":
@@ -138,3 +148,9 @@ def test_png_reader_on_damaged_files(data):
 @given(_mutations("obj"))
 def test_obj_reader_on_damaged_files(data):
     _read(".obj", data, _read_obj)
+
+
+@FUZZ
+@given(_mutations("glb"))
+def test_glb_reader_on_damaged_files(data):
+    _read(".glb", data, _read_glb)

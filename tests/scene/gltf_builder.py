@@ -1,0 +1,103 @@
+"""A small glTF 2.0 writer for the tests, on pygltflib: a parent node (translation, rotation,
+scale) with an indexed, normal-carrying, UV-mapped quad and a child node (a column-major matrix)
+with a non-indexed triangle without normals; two metal-rough materials."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pygltflib as g
+
+QUAD_P = np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], np.float32)
+QUAD_N = np.array([[0, 1, 0]] * 4, np.float32)
+QUAD_UV = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
+QUAD_I = np.array([0, 2, 1, 0, 3, 2], np.uint16)          # counter-clockwise seen from +Y
+TRI_P = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+PARENT_T = (0.5, 1.0, -2.0)
+PARENT_R = (0.0, np.sin(np.pi / 8), 0.0, np.cos(np.pi / 8))   # 45° about +Y (x, y, z, w)
+PARENT_S = (2.0, 2.0, 2.0)
+CHILD_M = np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [3, 0, 0, 1]], float)  # +3 x
+MATERIALS = [
+    {"name": "red plastic", "base": [0.8, 0.1, 0.05, 1.0], "metallic": 0.0, "roughness": 0.4},
+    {"name": "gold", "base": [1.0, 0.78, 0.34, 1.0], "metallic": 1.0, "roughness": 0.2},
+]
+
+
+def build(mode: int = 4, extensions_required=(), metallic0: float = 0.0) -> g.GLTF2:
+    blob = b""
+    views, accessors = [], []
+
+    def add(arr, target, comp, typ, minmax=False):
+        nonlocal blob
+        blob += b"\0" * (-len(blob) % 4)
+        data = np.ascontiguousarray(arr).tobytes()
+        views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data),
+                                  target=target))
+        blob += data
+        acc = g.Accessor(bufferView=len(views) - 1, componentType=comp, count=len(arr),
+                         type=typ)
+        if minmax:
+            acc.min, acc.max = arr.min(0).tolist(), arr.max(0).tolist()
+        accessors.append(acc)
+        return len(accessors) - 1
+
+    qp = add(QUAD_P, g.ARRAY_BUFFER, g.FLOAT, g.VEC3, True)
+    qn = add(QUAD_N, g.ARRAY_BUFFER, g.FLOAT, g.VEC3)
+    quv = add(QUAD_UV, g.ARRAY_BUFFER, g.FLOAT, g.VEC2)
+    qi = add(QUAD_I, g.ELEMENT_ARRAY_BUFFER, g.UNSIGNED_SHORT, g.SCALAR)
+    tp = add(TRI_P, g.ARRAY_BUFFER, g.FLOAT, g.VEC3, True)
+    mats = []
+    for k, m in enumerate(MATERIALS):
+        mats.append(g.Material(name=m["name"], pbrMetallicRoughness=g.PbrMetallicRoughness(
+            baseColorFactor=m["base"], metallicFactor=metallic0 if k == 0 else m["metallic"],
+            roughnessFactor=m["roughness"])))
+    doc = g.GLTF2(
+        asset=g.Asset(version="2.0", generator="sgpipe tests (pygltflib)"),
+        scene=0, scenes=[g.Scene(nodes=[0])],
+        nodes=[g.Node(name="base", mesh=0, children=[1], translation=list(PARENT_T),
+                      rotation=list(PARENT_R), scale=list(PARENT_S)),
+               g.Node(name="fin", mesh=1, matrix=CHILD_M.ravel().tolist())],
+        meshes=[g.Mesh(name="quad", primitives=[g.Primitive(
+                    attributes=g.Attributes(POSITION=qp, NORMAL=qn, TEXCOORD_0=quv),
+                    indices=qi, material=0, mode=mode)]),
+                g.Mesh(name="tri", primitives=[g.Primitive(
+                    attributes=g.Attributes(POSITION=tp), material=1)])],
+        materials=mats, accessors=accessors, bufferViews=views,
+        buffers=[g.Buffer(byteLength=len(blob))],
+        extensionsRequired=list(extensions_required),
+        extensionsUsed=list(extensions_required))
+    doc.set_binary_blob(blob)
+    return doc
+
+
+def write_glb(doc: g.GLTF2, path: Path) -> Path:
+    doc.save_binary(str(path))
+    return path
+
+
+def write_gltf(doc: g.GLTF2, path: Path) -> Path:
+    """.gltf with its buffer in `<stem>.bin` beside it."""
+    blob = doc.binary_blob()
+    bin_path = path.with_suffix(".bin")
+    bin_path.write_bytes(blob)
+    doc = g.GLTF2.from_json(doc.to_json())
+    doc.buffers[0].uri = bin_path.name
+    doc.save_json(str(path))
+    return path
+
+
+def parent_matrix() -> np.ndarray:
+    x, y, z, w = PARENT_R
+    r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                  [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                  [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    m = np.eye(4)
+    m[:3, :3] = r * np.asarray(PARENT_S)
+    m[:3, 3] = PARENT_T
+    return m
+
+
+def glb_header(path: Path) -> tuple[int, int, int]:
+    return struct.unpack_from("<III", path.read_bytes(), 0)
