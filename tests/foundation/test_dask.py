@@ -83,8 +83,9 @@ def cluster(tmp_path_factory):
 def _sgpipe(*args, env=None, **kw):
     full = {k: v for k, v in os.environ.items() if k != "SGPIPE_SCHEDULER"}
     full.update(env or {})
+    kw = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, **kw}
     return subprocess.Popen([sys.executable, "-m", "sgpipe", *map(str, args)], env=full,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+                            text=True, **kw)
 
 
 def _run(*args, env=None):
@@ -192,6 +193,43 @@ def test_a_worker_killed_mid_stage_is_retried_and_output_identical(cluster, conf
     # the scheduler saw the worker go (its chunks, queued or finished, were recomputed)
     assert "Remove worker" in sched_log.read_text()
     assert _files(tmp_path / "dask") == local
+
+
+def _running(addr: str, prefix: str = "trace_chunk") -> list[str]:
+    """Keys of `prefix` tasks that a worker thread is still running (wanted or released)."""
+    def keys(dask_worker):
+        return [str(k) for k, ts in dask_worker.state.tasks.items()
+                if prefix in str(k) and ts.state in ("executing", "long-running", "cancelled")]
+    with distributed.Client(addr, timeout=5) as c:
+        return sum(c.run(keys).values(), [])
+
+
+def test_a_chunk_stops_when_its_client_is_killed(cluster, config, tmp_path):
+    """Long chunks (8192 vertices × 128² rays, ~9 s each on a single-threaded worker); the
+    client (`sgpipe precompute`) is SIGKILLed a second into one: the worker drops it within
+    3 s (measured 0.28 s). Dask alone releases the task but lets its thread run to the chunk's
+    end (measured 8.0 s after the kill)."""
+    addr = cluster[0]
+    long = ("--set", "visibility.trace_resolution=128", "--set", "visibility.resolution=16",
+            "--set", "visibility.chunk_vertices=8192")
+    p = _sgpipe("precompute", config / "vis.yaml", "--out", tmp_path / "out", *long,
+                "--scheduler", addr, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        while not _running(addr):
+            assert p.poll() is None and time.monotonic() < deadline, "no chunk ever ran"
+            time.sleep(0.1)
+        time.sleep(1.0)
+        p.kill()
+        p.wait(10)
+        t0 = time.monotonic()
+        while _running(addr) and time.monotonic() - t0 < 60:
+            time.sleep(0.1)
+        stopped_s = time.monotonic() - t0
+    finally:
+        _stop(p)
+    print(f"stopped {stopped_s:.2f} s after the kill")
+    assert stopped_s < 3.0, f"the orphaned chunk ran on for {stopped_s:.1f} s"
 
 
 def test_only_the_executor_imports_dask():

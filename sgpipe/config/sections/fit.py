@@ -9,6 +9,8 @@ from typing import Any, Literal
 from sgpipe.config.schema import InputPath, doc
 
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
+#: views × importance samples a per-view mixture fit may hold at once (fit.view_gmm)
+MAX_VIEW_SAMPLES = 1 << 25
 
 
 @dataclass
@@ -90,6 +92,12 @@ class ViewGmmSpec:
                             ge=0, le=32)
 
     def validate(self):
+        views = self.theta_count * (self.phi_count or 16)    # 0: up to 16 azimuths
+        if views * self.samples > MAX_VIEW_SAMPLES:
+            raise ValueError(
+                f"samples: theta_count × phi_count × samples must be at most 2^25 (every "
+                f"view's samples are held at once, 56 bytes each: 1.9 GB), got {views} views "
+                f"× {self.samples}")
         for k, v in enumerate(self.report_views_deg):
             if not 0.0 <= v < 90.0:
                 raise ValueError(f"report_views_deg.{k}: must be in [0, 90), got {v}")

@@ -87,7 +87,9 @@ class TransportSection:
                             gt=0, lt=0.1)
     chunk_vertices: int = doc("Vertices per parallel work item; the flood fill (fit started "
                               "from a fitted neighbour) runs within a chunk, so the chunking, "
-                              "never the worker count, decides the result.", 256, ge=1)
+                              "never the worker count, decides the result. At most 4096: "
+                              "a chunk holds its vertices' light-cube visibility (6·res² "
+                              "texels each) and 92-view fits.", 256, ge=1, le=4096)
     sphere_subdivisions: int = doc("Icosphere subdivisions for `sphere_radius` objects.", 3,
                                    ge=0, le=7)
     report_vertices: int = doc("Vertices per object whose compact-vs-full error is measured "
