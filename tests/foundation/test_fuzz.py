@@ -107,11 +107,15 @@ def _valid(kind: str) -> bytes:
     with tempfile.TemporaryDirectory() as d:
         if kind == "obj":
             return b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1\n"
-        if kind == "glb":
+        if kind in ("glb", "gltf"):
             import sys
             sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scene"))
             import gltf_builder
-            return gltf_builder.write_glb(gltf_builder.build(), Path(d) / "v.glb").read_bytes()
+            if kind == "glb":
+                return gltf_builder.write_glb(gltf_builder.build(), Path(d) / "v.glb") \
+                    .read_bytes()
+            return gltf_builder.write_gltf_embedded(gltf_builder.build(), Path(d) / "v.gltf") \
+                .read_bytes()
         p = Path(d) / f"v.{kind}"
         img = np.linspace(0, 1, 4 * 8 * 3, dtype=np.float32).reshape(4, 8, 3)
         if kind == "exr":
@@ -154,3 +158,9 @@ def test_obj_reader_on_damaged_files(data):
 @given(_mutations("glb"))
 def test_glb_reader_on_damaged_files(data):
     _read(".glb", data, _read_glb)
+
+
+@FUZZ
+@given(_mutations("gltf"))
+def test_gltf_reader_on_damaged_files(data):
+    _read(".gltf", data, _read_glb)

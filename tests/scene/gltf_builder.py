@@ -88,6 +88,17 @@ def write_gltf(doc: g.GLTF2, path: Path) -> Path:
     return path
 
 
+def write_gltf_embedded(doc: g.GLTF2, path: Path) -> Path:
+    """.gltf with its buffer inside, as a base64 data URI."""
+    import base64
+    blob = doc.binary_blob()
+    doc = g.GLTF2.from_json(doc.to_json())
+    doc.buffers[0].uri = ("data:application/octet-stream;base64,"
+                          + base64.b64encode(blob).decode("ascii"))
+    doc.save_json(str(path))
+    return path
+
+
 def parent_matrix() -> np.ndarray:
     x, y, z, w = PARENT_R
     r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
