@@ -31,7 +31,8 @@ def _unique(name: str, taken: set[str], tag: str) -> str:
 def expand_gltf(cfg) -> None:
     """Append one ObjectSpec per triangle primitive of each `scene.gltf` file (or of its
     selected nodes) and one `gltf_pbr` MaterialSpec per glTF material those use (its factors;
-    the glTF default material where a primitive names none). Textures are reported, not read."""
+    the glTF default material where a primitive names none). Textures the renderers do not
+    read are reported, one line per material."""
     scene = cfg.scene
     if scene is None or not scene.gltf:
         return
@@ -72,10 +73,17 @@ def expand_gltf(cfg) -> None:
                                    key=f"meshes[{r.mesh}].primitives[{r.primitive}].material")
                 m = asset.materials[r.material]
                 params, label = m.params(), safe_name(m.name)
+                read = [t for t in m.textures if t in ("baseColorTexture",
+                                                       "metallicRoughnessTexture")]
+                unread = [t for t in m.textures if t not in read]
                 if m.textures:
                     print(f"sgpipe: note: {Path(g.file).name}: materials[{m.index}] "
-                          f"({m.name}) has {', '.join(m.textures)}; sgpipe renders its "
-                          "factors only", file=sys.stderr)
+                          f"({m.name}): "
+                          + (f"the reference reads its {' and '.join(read)}, the other "
+                             "methods its factors" if read else "")
+                          + ("; " if read and unread else "")
+                          + (f"{', '.join(unread)} not read" if unread else ""),
+                          file=sys.stderr)
             name = _unique(f"{prefix}.{label}", materials, str(r.material))
             mat_names[r.material] = name
             cfg.fit.materials.append(MaterialSpec(name=name, model="gltf_pbr", params=params))

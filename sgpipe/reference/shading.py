@@ -75,6 +75,24 @@ def _visible(tracer, origin, dirs, tmax=np.inf):
     return ~tracer.occluded(origin, dirs, tmax=tmax, tnear=1e-5)
 
 
+def _take(brdf, idx):
+    """The BRDF of the rows idx: a per-row (textured) BRDF's subset, a uniform one itself."""
+    return brdf.take(idx) if hasattr(brdf, "take") else brdf
+
+
+def _object_brdf(brdfs, m, tex, sel):
+    """Object m's BRDF for its rows sel: per-row glTF parameters where its material is
+    textured (tex[2], sgpipe.reference.surface), else its material's BRDF."""
+    brdf = brdfs[m]
+    if tex is None or len(tex) < 3:
+        return brdf
+    p = tex[2][sel]
+    if not np.isfinite(p[:, 0]).all():
+        return brdf
+    from sgpipe.brdf.gltf_rows import GltfRows
+    return GltfRows(p[:, :3], p[:, 3], p[:, 4], brdf.params.get("anisotropy", 0.0))
+
+
 def _technique(brdf, tracer, env, o, t, b, n, ng, org, tex, u1, u2, which, strategy, mis):
     """Contributions (N, 3) of one BRDF sample ("brdf") or one env sample ("env") per row."""
     nrow = len(o)
@@ -100,8 +118,10 @@ def _technique(brdf, tracer, env, o, t, b, n, ng, org, tex, u1, u2, which, strat
             return out
         idx = np.flatnonzero(ok)
         il, wd, p_own, rad = i_loc[idx], wd_all[idx], pe[idx], rad_all[idx]
-        p_other = np.asarray(brdf.pdf(o[idx], il), np.float64) if strategy == "mis" else None
-    f = _brdf_eval(brdf, o[idx], il, None if tex is None else (tex[0][idx], tex[1][idx]))
+        p_other = (np.asarray(_take(brdf, idx).pdf(o[idx], il), np.float64)
+                   if strategy == "mis" else None)
+    f = _brdf_eval(_take(brdf, idx), o[idx], il,
+                   None if tex is None else (tex[0][idx], tex[1][idx]))
     w = _mis_weight(p_own, p_other, mis) if strategy == "mis" else 1.0
     c = f * rad * (il[:, 2] * w / p_own)[:, None]
     live = np.flatnonzero((c > 0).any(axis=1) & np.isfinite(c).all(axis=1))
@@ -126,7 +146,7 @@ def _direct_lights(brdf, tracer, lights, o, t, b, n, ng, pos, org, tex, ul=None)
         if ok.size == 0:
             continue
         tx = None if tex is None else (tex[0][ok], tex[1][ok])
-        c = _brdf_eval(brdf, o[ok], il[ok], tx) * factor[ok] * il[ok, 2:3]
+        c = _brdf_eval(_take(brdf, ok), o[ok], il[ok], tx) * factor[ok] * il[ok, 2:3]
         vis = _visible(tracer, org[ok], np.ascontiguousarray(d[ok]), tmax=tmax[ok])
         out[ok] += c * vis[:, None]
     return out
@@ -167,11 +187,12 @@ def _shade_hits(sh, rows, u, ul, strategy, mis):
     for m in np.unique(obj):
         sel = np.flatnonzero(obj == m)
         tx = None if tex is None else (tex[0][sel], tex[1][sel])
+        brdf = _object_brdf(brdfs, m, tex, sel)
         args = (o_loc[sel], t[sel], b[sel], n[sel], ng[sel])
-        acc = _direct_lights(brdfs[m], tracer, lights, *args, pos[sel], org[sel], tx,
+        acc = _direct_lights(brdf, tracer, lights, *args, pos[sel], org[sel], tx,
                              None if ul is None else ul[sel])
         for k, which in enumerate(techniques):
-            acc += _technique(brdfs[m], tracer, env, *args, org[sel], tx, u[sel, 2 * k],
+            acc += _technique(brdf, tracer, env, *args, org[sel], tx, u[sel, 2 * k],
                               u[sel, 2 * k + 1], which, strategy, mis)
         out[sel] = acc
     return out
@@ -201,7 +222,8 @@ def _continue(sh, rows, u1, u2):
         o_loc = np.stack([np.einsum("ij,ij->i", view[sel], t[sel]),
                           np.einsum("ij,ij->i", view[sel], b[sel]),
                           np.einsum("ij,ij->i", view[sel], n[sel])], -1)
-        i_loc, p = sh["brdfs"][m].sample(o_loc, u1[sel], u2[sel])
+        brdf = _object_brdf(sh["brdfs"], m, tex, sel)
+        i_loc, p = brdf.sample(o_loc, u1[sel], u2[sel])
         i_loc, p = np.asarray(i_loc, np.float64), np.asarray(p, np.float64)
         wd = _to_world(i_loc, t[sel], b[sel], n[sel])
         ok = ((p > 0) & (i_loc[:, 2] > 0) & np.isfinite(p) & np.isfinite(i_loc).all(axis=1)
@@ -210,7 +232,7 @@ def _continue(sh, rows, u1, u2):
             continue
         k = sel[ok]
         tx = None if tex is None else (tex[0][k], tex[1][k])
-        f = _brdf_eval(sh["brdfs"][m], o_loc[ok], i_loc[ok], tx)
+        f = _brdf_eval(_take(brdf, ok), o_loc[ok], i_loc[ok], tx)
         dirs[k] = wd[ok] / np.linalg.norm(wd[ok], axis=1, keepdims=True)
         weight[k] = f * (i_loc[ok, 2] / p[ok])[:, None]
     return dirs, weight

@@ -1,5 +1,6 @@
 """Per-sample primary hits of the `reference` method and the surface features the OpenCL methods
-honour (contract: sgpipe.reference): tangent-space normal maps and kd / ks texture multipliers.
+honour (contract: sgpipe.reference): tangent-space normal maps, kd / ks texture multipliers and
+textured glTF materials (`rows["tex"]` = (kd, ks, glTF parameters (N, 5) or NaN)).
 
     maps = [ObjectMaps(normal_map=img, kd_map=None, ks_map=tex), ObjectMaps()]   # per object
     rows = primary_rows(tracer, camera, px, py, maps)   # px, py: image-plane positions (N,)
@@ -21,12 +22,40 @@ from sgpipe.reference import _sampling_jit as jit
 
 
 @dataclass
+class GltfSurface:
+    """A glTF material's textured parameters (gltf_pbr): base colour = factor × texture (linear),
+    roughness = factor × texture G, metallic = factor × texture B (sgpipe.io.gltf_textures)."""
+
+    base_color: np.ndarray                  # (3,) factor
+    metallic: float
+    roughness: float
+    base_texture: object | None = None      # GltfTexture
+    metal_rough_texture: object | None = None
+
+    def params(self, uv) -> np.ndarray:
+        """(N, 5): base colour RGB, metallic, roughness at sgpipe UVs (N, 2)."""
+        n = len(uv)
+        out = np.empty((n, 5))
+        out[:, :3] = np.asarray(self.base_color, float)
+        out[:, 3], out[:, 4] = self.metallic, self.roughness
+        if self.base_texture is not None:
+            out[:, :3] *= self.base_texture.bilinear(uv)[:, :3]
+        if self.metal_rough_texture is not None:
+            mr = self.metal_rough_texture.bilinear(uv)
+            out[:, 4] *= mr[:, 1]
+            out[:, 3] *= mr[:, 2]
+        return out
+
+
+@dataclass
 class ObjectMaps:
-    """Optional per-object images (H, W, C) float: normal map, kd and ks multipliers."""
+    """Optional per-object images (H, W, C) float: normal map, kd and ks multipliers; and a
+    textured glTF material."""
 
     normal_map: np.ndarray | None = None
     kd_map: np.ndarray | None = None
     ks_map: np.ndarray | None = None
+    gltf: GltfSurface | None = None
 
     @classmethod
     def of(cls, m) -> "ObjectMaps":
@@ -34,7 +63,7 @@ class ObjectMaps:
             return cls()
         if isinstance(m, ObjectMaps):
             return m
-        return cls(**{k: m.get(k) for k in ("normal_map", "kd_map", "ks_map")})
+        return cls(**{k: m.get(k) for k in ("normal_map", "kd_map", "ks_map", "gltf")})
 
     def __post_init__(self):
         for k in ("normal_map", "kd_map", "ks_map"):
@@ -52,7 +81,8 @@ class ObjectMaps:
 
     @property
     def empty(self) -> bool:
-        return self.normal_map is None and self.kd_map is None and self.ks_map is None
+        return (self.normal_map is None and self.kd_map is None and self.ks_map is None
+                and self.gltf is None)
 
 
 def _unit(v):
@@ -136,11 +166,15 @@ def primary_rows(tracer, camera, px, py, maps=None, backfacing: str = "lift") ->
         uv = np.asarray(gb.uv[idx], np.float64)
         kd = np.ones((len(idx), 3))
         ks = np.ones((len(idx), 3))
-        scaled = any(m.kd_map is not None or m.ks_map is not None for m in maps)
+        sv = np.full((len(idx), 5), np.nan)     # glTF textured parameters (NaN: none)
+        scaled = any(m.kd_map is not None or m.ks_map is not None or m.gltf is not None
+                     for m in maps)
         for k, m in enumerate(maps):
             sel = np.flatnonzero(obj == k)
             if m.empty or sel.size == 0:
                 continue
+            if m.gltf is not None:
+                sv[sel] = m.gltf.params(uv[sel])
             if m.kd_map is not None:
                 kd[sel] = jit.tex_bilinear(m.kd_map, uv[sel])
             if m.ks_map is not None:
@@ -156,6 +190,6 @@ def primary_rows(tracer, camera, px, py, maps=None, backfacing: str = "lift") ->
                 view[sel] = mapped_view(view[sel], t[sel], b[sel], n[sel], t2, b2, n2)
                 t[sel], b[sel], n[sel] = t2, b2, n2
         if scaled:
-            tex = (kd, ks)
+            tex = (kd, ks, sv)
     return {"hit": gb.hit, "dirs": d64, "idx": idx, "pos": pos, "t": t, "b": b, "n": n,
             "ng": ng, "view": view, "obj": obj, "tex": tex}

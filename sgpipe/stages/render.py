@@ -223,8 +223,36 @@ def object_maps(cfg) -> list:
             normal_map=None if o.normal_map is None else image(o.normal_map,
                                                                f"scene.objects.{k}.normal_map"),
             kd_map=image(t.kd_map, "render.material_textures.kd_map") if t and t.kd_map else None,
-            ks_map=image(t.ks_map, "render.material_textures.ks_map") if t and t.ks_map else None))
+            ks_map=image(t.ks_map, "render.material_textures.ks_map") if t and t.ks_map else None,
+            gltf=_gltf_surface(cfg, o)))
     return out
+
+
+def _gltf_surface(cfg, obj):
+    """The textured glTF material of an object that is one glTF primitive (gltf_node and
+    gltf_primitive set) rendered with a `gltf_pbr` material: the material's factors (its
+    params) times the primitive's glTF material's base colour and metallic-roughness textures;
+    None when the material has neither texture."""
+    if obj.gltf_node is None or obj.gltf_primitive is None or cfg.fit is None:
+        return None
+    spec = next((m for m in cfg.fit.materials if m.name == obj.material), None)
+    if spec is None or spec.model != "gltf_pbr":
+        return None
+    from sgpipe.io.gltf import read_gltf
+    from sgpipe.io.gltf_textures import material_texture
+    from sgpipe.reference.surface import GltfSurface
+    asset = read_gltf(obj.mesh)
+    ref = next((r for r in asset.primitives
+                if (r.node, r.primitive) == (obj.gltf_node, obj.gltf_primitive)), None)
+    if ref is None or ref.material is None:
+        return None
+    base = material_texture(asset, ref.material, "baseColorTexture")
+    mr = material_texture(asset, ref.material, "metallicRoughnessTexture")
+    if base is None and mr is None:
+        return None
+    p = spec.params
+    return GltfSurface(np.broadcast_to(np.asarray(p.get("base_color", 1.0), float), (3,)),
+                       float(p.get("metallic", 1.0)), float(p.get("roughness", 1.0)), base, mr)
 
 
 def _reference(cfg, bundle, run) -> np.ndarray:

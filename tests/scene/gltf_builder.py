@@ -112,3 +112,65 @@ def parent_matrix() -> np.ndarray:
 
 def glb_header(path: Path) -> tuple[int, int, int]:
     return struct.unpack_from("<III", path.read_bytes(), 0)
+
+
+def png_bytes(img: np.ndarray) -> bytes:
+    """8-bit PNG of an (H, W, 3) image in [0, 1] (row 0 at the top)."""
+    import io
+
+    from PIL import Image
+    buf = io.BytesIO()
+    Image.fromarray(np.round(np.clip(img, 0, 1) * 255).astype(np.uint8)).save(buf, "PNG")
+    return buf.getvalue()
+
+
+def textured_quad(base_img=None, mr_img=None, *, base=(1.0, 1.0, 1.0), metallic=1.0,
+                  roughness=1.0, wrap=33071) -> g.GLTF2:
+    """A 2 × 2 quad in the x-y plane facing +z, UVs (0, 0) at its top-left corner (glTF's
+    origin) to (1, 1), one material with optional base-colour and metallic-roughness PNGs."""
+    p = np.array([[-1, 1, 0], [1, 1, 0], [1, -1, 0], [-1, -1, 0]], np.float32)
+    n = np.array([[0, 0, 1]] * 4, np.float32)
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
+    idx = np.array([0, 3, 2, 0, 2, 1], np.uint16)
+    blob, views, accessors = b"", [], []
+
+    def view(data: bytes, target=None) -> int:
+        nonlocal blob
+        blob += b"\0" * (-len(blob) % 4)
+        views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data),
+                                  target=target))
+        blob += data
+        return len(views) - 1
+
+    def acc(arr, comp, typ, target):
+        accessors.append(g.Accessor(bufferView=view(np.ascontiguousarray(arr).tobytes(), target),
+                                    componentType=comp, count=len(arr), type=typ))
+        if typ == g.VEC3 and comp == g.FLOAT:
+            accessors[-1].min, accessors[-1].max = arr.min(0).tolist(), arr.max(0).tolist()
+        return len(accessors) - 1
+
+    attrs = g.Attributes(POSITION=acc(p, g.FLOAT, g.VEC3, g.ARRAY_BUFFER),
+                         NORMAL=acc(n, g.FLOAT, g.VEC3, g.ARRAY_BUFFER),
+                         TEXCOORD_0=acc(uv, g.FLOAT, g.VEC2, g.ARRAY_BUFFER))
+    ind = acc(idx, g.UNSIGNED_SHORT, g.SCALAR, g.ELEMENT_ARRAY_BUFFER)
+    images, textures = [], []
+    pbr = g.PbrMetallicRoughness(baseColorFactor=[*base, 1.0], metallicFactor=metallic,
+                                 roughnessFactor=roughness)
+    for img, slot in ((base_img, "baseColorTexture"), (mr_img, "metallicRoughnessTexture")):
+        if img is None:
+            continue
+        images.append(g.Image(bufferView=view(png_bytes(img)), mimeType="image/png"))
+        textures.append(g.Texture(source=len(images) - 1, sampler=0))
+        setattr(pbr, slot, g.TextureInfo(index=len(textures) - 1))
+    doc = g.GLTF2(asset=g.Asset(version="2.0"), scene=0, scenes=[g.Scene(nodes=[0])],
+                  nodes=[g.Node(name="quad", mesh=0)],
+                  meshes=[g.Mesh(primitives=[g.Primitive(attributes=attrs, indices=ind,
+                                                         material=0)])],
+                  materials=[g.Material(name="painted", pbrMetallicRoughness=pbr)],
+                  images=images, textures=textures,
+                  samplers=[g.Sampler(wrapS=wrap, wrapT=wrap)],
+                  accessors=accessors, bufferViews=views,
+                  buffers=[g.Buffer(byteLength=len(blob))], extensionsUsed=[],
+                  extensionsRequired=[])
+    doc.set_binary_blob(blob)
+    return doc
