@@ -299,3 +299,23 @@ def test_normal_map_unit_z_up_and_consistent_with_height():
     cos = np.clip((fd * exr).sum(-1) / np.linalg.norm(exr, axis=-1), -1, 1)
     err = np.degrees(np.arccos(cos))
     assert np.percentile(err, 99) < 1.0 and err.max() < 2.0  # FD error at the bump rims (C1)
+
+
+def test_textured_ball_is_what_it_claims():
+    """textured_ball.glb reads back through sgpipe's glTF reader: one primitive, the sphere's
+    vertices, roughness 0.05 → 0.8 along u, metalness 0/1 bands with sharp edges along v."""
+    from sgpipe.io.gltf import primitive_geometry, read_gltf
+    from sgpipe.io.gltf_textures import material_texture
+    a = read_gltf(SAMPLES / "textured_ball.glb")
+    (ref,) = a.primitives
+    geo = primitive_geometry(a, ref)
+    np.testing.assert_allclose(np.linalg.norm(geo["positions"], axis=1), 1.0, atol=2e-6)
+    mr = material_texture(a, ref.material, "metallicRoughnessTexture").image
+    rough = mr[0, :, 1]
+    assert abs(rough[0] - 0.05) < 0.01 and abs(rough[-1] - 0.8) < 0.01
+    assert np.all(np.diff(rough) >= 0)
+    metal = mr[:, 0, 2]
+    assert set(np.unique(metal)) == {0.0, 1.0}
+    assert np.count_nonzero(np.diff(metal)) == 3           # three sharp edges down the rows
+    assert material_texture(a, ref.material, "baseColorTexture").image.shape == (128, 256, 3)
+    assert material_texture(a, ref.material, "normalTexture") is not None

@@ -19,6 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import sample_envmaps as env  # noqa: E402
 from canonical import fsum_channels, normalize3  # noqa: E402
+import sample_gltf  # noqa: E402
 import sample_meshes as meshes  # noqa: E402
 import sample_normalmaps  # noqa: E402
 import sample_readme  # noqa: E402
@@ -178,6 +179,15 @@ def make_meshes(out: Path) -> dict:
     return info
 
 
+def make_gltf(out: Path) -> dict:
+    """textured_ball.glb: the UV sphere with base-colour, metallic-roughness and normal
+    textures (tools/sample_gltf.py); its normal texture is normal_map.png's bumps at 128²."""
+    _, n = make_normal_map(sample_gltf.TEX_H)
+    facts = sample_gltf.write_textured_ball(out / "textured_ball.glb", meshes.uv_sphere(),
+                                            encode_normals_8bit(n))
+    return {"textured_ball.glb": facts}
+
+
 def make_normal_maps(out: Path) -> dict:
     h, n = make_normal_map()
     write_png(out / "normal_map.png", encode_normals_8bit(n), already_8bit=True)
@@ -206,6 +216,7 @@ def main(argv: list[str] | None = None) -> int:
     _write_text(out / "env_info.json", json.dumps(info, indent=2, sort_keys=True) + "\n")
     facts = {**info, **make_meshes(out), **make_normal_maps(out)}
     facts.update(sample_normalmaps.make(out))   # Han07 sample: grooves_normal*.png
+    facts.update(make_gltf(out))
     _write_text(out / "README.md", sample_readme.render(out, facts))
     return 0
 

@@ -30,6 +30,11 @@ FILES = (
     ("normal_map.exr", "the same normals unquantised to 8 bits: float16, n * 0.5 + 0.5", "idem"),
     ("bump_height.exr", "the height field the normals come from, in uv units (1 channel, float32)",
      "`make_data_samples.bump_height`"),
+    ("textured_ball.glb", "glTF 2.0 metal-rough asset: the unit UV sphere with 256 x 128 "
+     "textures: base colour (8 x 4 tiles of four paints, sRGB), metallic-roughness (roughness "
+     "0.05 -> 0.8 along u in G, metalness 1 in two bands of v in B: sharp edges), normal "
+     "(normal_map.png's bumps at 128^2); factors 1",
+     "`tools/sample_gltf.py` (pygltflib, PNGs by Pillow)"),
 )
 
 
