@@ -89,7 +89,7 @@ def _decode(data: bytes, path: Path, element: str) -> np.ndarray:
         raise BadInput(f"cannot decode the image ({type(e).__name__}: "
                        f"{(str(e).splitlines() or [''])[0][:100]})", file=path,
                        key=element) from None
-    return a[:, :, None] if a.ndim == 2 else a
+    return np.repeat(a[:, :, None], 3, axis=2) if a.ndim == 2 else a   # grey: R = G = B
 
 
 def _image_bytes(asset, index: int) -> bytes:

@@ -45,6 +45,19 @@ def test_decode_srgb_and_linear(tmp_path):
     np.testing.assert_allclose(base.bilinear([[0.25, 0.5]])[0, :3], base.image[16, 8, :3])
 
 
+def test_16_bit_grey_image_reads_as_three_channels(tmp_path):
+    """A 16-bit single-channel PNG (roughness in every channel) gives G and B like RGB ones."""
+    import io
+
+    from PIL import Image
+    from sgpipe.io.gltf_textures import _decode
+    buf = io.BytesIO()
+    Image.fromarray(np.full((4, 4), 32768, np.uint16)).save(buf, "PNG")
+    img = _decode(buf.getvalue(), tmp_path / "x.glb", "images[0]")
+    assert img.shape == (4, 4, 3)
+    np.testing.assert_allclose(img[0, 0], 32768 / 65535)
+
+
 def test_sRGB_curve():
     np.testing.assert_allclose(srgb_to_linear([0.0, 0.04045, 0.5, 1.0]),
                                [0.0, 0.04045 / 12.92, 0.214041140, 1.0], rtol=1e-6)
