@@ -14,7 +14,8 @@ from sgpipe.cli_args import out_folder
 @click.option("--out", "out_dir", type=str, callback=out_folder, default=None,
               help="Export folder (default: RUN_DIR/export); replaced as a whole.")
 @click.option("--format", "fmt", default="rgba16f", show_default=True, metavar="FORMAT",
-              help="KTX2 texel format: rgba16f (VK_FORMAT_R16G16B16A16_SFLOAT) or b10g11r11 "
+              help="KTX2 texel format: rgba16f (VK_FORMAT_R16G16B16A16_SFLOAT), rgba32f "
+                   "(VK_FORMAT_R32G32B32A32_SFLOAT) or b10g11r11 "
                    "(VK_FORMAT_B10G11R11_UFLOAT_PACK32). The DDS is always RGBA16F.")
 @click.option("--size", type=int, default=None, metavar="N",
               help="Face size of mip 0 (default: the envmap stage's cube resolution; it may "

@@ -2,8 +2,10 @@
 (identifier, header, index, level index, Data Format Descriptor, key/value data, level data
 smallest level first), and a reader that parses every field back (the tests' proof).
 
-Formats: VK_FORMAT_R16G16B16A16_SFLOAT (97, alpha 1) and VK_FORMAT_B10G11R11_UFLOAT_PACK32
-(122, sgpipe.export.packed_float). Faces +X −X +Y −Y +Z −Z in sgpipe's (OpenGL) cube
+Formats: VK_FORMAT_R16G16B16A16_SFLOAT (97, alpha 1), VK_FORMAT_R32G32B32A32_SFLOAT (109),
+VK_FORMAT_B10G11R11_UFLOAT_PACK32 (122, sgpipe.export.packed_float), VK_FORMAT_R16_SFLOAT (76),
+and the 8-bit VK_FORMAT_R8G8B8A8_UNORM (37) and _SRGB (43) (values clamped to [0, 1]; the sRGB
+one encodes RGB with the sRGB curve, alpha linear). Any other vkFormat is refused by name. Faces +X −X +Y −Y +Z −Z in sgpipe's (OpenGL) cube
 convention: texel row r, column c of face f at s = (c + ½)/n, t = (r + ½)/n, the first row in
 the file at t = 0 — what Vulkan and OpenGL sample for direction d, and KTXorientation "rd".
 """
@@ -25,9 +27,11 @@ LEVEL_INDEX_ENTRY = 24               # byteOffset, byteLength, uncompressedByteL
 KHR_DF_MODEL_RGBSDA = 1
 KHR_DF_PRIMARIES_BT709 = 1
 KHR_DF_TRANSFER_LINEAR = 1
+KHR_DF_TRANSFER_SRGB = 2
 KHR_DF_VERSION = 2
 CHANNEL_R, CHANNEL_G, CHANNEL_B, CHANNEL_A = 0, 1, 2, 15
 QUAL_FLOAT, QUAL_SIGNED = 0x80, 0x40      # sample datatype qualifiers (high bits of the id)
+QUAL_LINEAR = 0x10                         # a linear channel (alpha) in an sRGB format
 F32_ONE, F32_MINUS_ONE, F32_ZERO = 0x3F800000, 0xBF800000, 0x00000000
 
 
@@ -41,6 +45,7 @@ class KtxFormat:
     type_size: int
     texel_bytes: int
     samples: tuple
+    transfer: int = KHR_DF_TRANSFER_LINEAR
 
     @property
     def alignment(self) -> int:
@@ -57,7 +62,19 @@ B10G11R11 = KtxFormat("B10G11R11_UFLOAT_PACK32", 122, 4, 4, (
     (22, 10, CHANNEL_B | QUAL_FLOAT, F32_ZERO, F32_ONE)))
 R16F = KtxFormat("R16_SFLOAT", 76, 2, 2, (
     (0, 16, CHANNEL_R | QUAL_FLOAT | QUAL_SIGNED, F32_MINUS_ONE, F32_ONE),))
-FORMATS = {"rgba16f": RGBA16F, "b10g11r11": B10G11R11}     # the --format choices (cubemaps)
+RGBA32F = KtxFormat("R32G32B32A32_SFLOAT", 109, 4, 16, tuple(
+    (32 * i, 32, ch | QUAL_FLOAT | QUAL_SIGNED, F32_MINUS_ONE, F32_ONE)
+    for i, ch in enumerate((CHANNEL_R, CHANNEL_G, CHANNEL_B, CHANNEL_A))))
+RGBA8 = KtxFormat("R8G8B8A8_UNORM", 37, 1, 4, tuple(
+    (8 * i, 8, ch, 0, 255) for i, ch in enumerate((CHANNEL_R, CHANNEL_G, CHANNEL_B, CHANNEL_A))))
+RGBA8_SRGB = KtxFormat("R8G8B8A8_SRGB", 43, 1, 4, tuple(
+    (8 * i, 8, ch | (QUAL_LINEAR if ch == CHANNEL_A else 0), 0, 255)
+    for i, ch in enumerate((CHANNEL_R, CHANNEL_G, CHANNEL_B, CHANNEL_A))),
+    KHR_DF_TRANSFER_SRGB)
+#: every format the reader and writer handle, by vkFormat
+KNOWN = {f.vk_format: f for f in (RGBA16F, RGBA32F, B10G11R11, R16F, RGBA8, RGBA8_SRGB)}
+FORMATS = {"rgba16f": RGBA16F, "rgba32f": RGBA32F,
+           "b10g11r11": B10G11R11}                          # the --format choices (cubemaps)
 
 
 def dfd_bytes(fmt: KtxFormat) -> bytes:
@@ -68,7 +85,7 @@ def dfd_bytes(fmt: KtxFormat) -> bytes:
     words = [0,                                       # vendorId 0 (Khronos), descriptorType 0
              KHR_DF_VERSION | (block << 16),          # versionNumber, descriptorBlockSize
              KHR_DF_MODEL_RGBSDA | (KHR_DF_PRIMARIES_BT709 << 8)
-             | (KHR_DF_TRANSFER_LINEAR << 16),        # flags 0: alpha straight
+             | (fmt.transfer << 16),                  # flags 0: alpha straight
              0,                                       # texelBlockDimension0..3 = 1×1×1×1
              fmt.texel_bytes,                         # bytesPlane0 (planes 1–3: 0)
              0]                                       # bytesPlane4..7
@@ -93,14 +110,29 @@ def text_value(s: str) -> bytes:
     return s.encode("utf-8") + b"\0"
 
 
+def _rgba(faces: np.ndarray) -> np.ndarray:
+    """RGB (alpha 1) or RGBA, as RGBA."""
+    if faces.shape[-1] == 4:
+        return faces
+    return np.concatenate([faces[..., :3], np.ones(faces.shape[:-1] + (1,))], -1)
+
+
 def level_bytes(faces: np.ndarray, fmt: KtxFormat) -> bytes:
     """One mip level (6, n, n, C) or (n, n, C) → its faces in order, rows in order, texels
-    packed. RGBA16F takes RGB (alpha 1) or RGBA; R16F one channel; B10G11R11 RGB."""
+    packed. The RGBA formats take RGB (alpha 1) or RGBA; R16F one channel; B10G11R11 RGB."""
     faces = np.asarray(faces, np.float64)
     if fmt is RGBA16F:
         if faces.shape[-1] == 3:
             return to_half_rgba(faces).astype("<f2").tobytes()
         return np.clip(faces, -65504.0, 65504.0).astype("<f2").tobytes()
+    if fmt is RGBA32F:
+        return _rgba(faces).astype("<f4").tobytes()
+    if fmt in (RGBA8, RGBA8_SRGB):
+        v = np.clip(_rgba(faces), 0.0, 1.0)
+        if fmt is RGBA8_SRGB:
+            c = v[..., :3]
+            v[..., :3] = np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
+        return np.round(v * 255.0).astype(np.uint8).tobytes()
     if fmt is R16F:
         return np.clip(faces[..., 0], -65504.0, 65504.0).astype("<f2").tobytes()
     return pack_b10g11r11(faces).astype("<u4").tobytes()
@@ -171,8 +203,10 @@ def parse_dfd(buf: bytes) -> dict:
 
 
 def read_ktx2(buf: bytes) -> dict:
-    """Every field of a KTX2 file written by `write_ktx2`, and its levels decoded to float
-    (F, n, n, C) with F the face count (RGBA16F: C = 4, R16F: 1, B10G11R11: 3)."""
+    """Every field of a KTX2 file written by `write_ktx2` (or another writer, in a format of
+    KNOWN, uncompressed), and its levels decoded to float (F, n, n, C) with F the face count
+    (the RGBA formats: C = 4, linear; R16F: 1; B10G11R11: 3). Another vkFormat or a
+    supercompressed file is a ValueError naming it."""
     if buf[:12] != IDENTIFIER:
         raise ValueError("not a KTX 2.0 file (identifier)")
     keys = ("vk_format", "type_size", "width", "height", "depth", "layers", "faces",
@@ -183,7 +217,14 @@ def read_ktx2(buf: bytes) -> dict:
     level_index = [dict(zip(("offset", "length", "uncompressed_length"),
                             struct.unpack_from("<3Q", buf, HEADER_BYTES + LEVEL_INDEX_ENTRY * m)))
                    for m in range(hdr["level_count"])]
-    fmt = {f.vk_format: f for f in (RGBA16F, B10G11R11, R16F)}[hdr["vk_format"]]
+    fmt = KNOWN.get(hdr["vk_format"])
+    if fmt is None:
+        raise ValueError(f"KTX2 vkFormat {hdr['vk_format']} is not one sgpipe reads (it reads "
+                         + ", ".join(f"{f.name} ({k})" for k, f in sorted(KNOWN.items()))
+                         + ")")
+    if hdr["supercompression"]:
+        raise ValueError(f"KTX2 supercompression scheme {hdr['supercompression']} is not one "
+                         "sgpipe reads (it reads uncompressed levels)")
     levels = []
     nf = hdr["faces"]
     for m, e in enumerate(level_index):
@@ -191,6 +232,14 @@ def read_ktx2(buf: bytes) -> dict:
         raw = buf[e["offset"]:e["offset"] + e["length"]]
         if fmt is B10G11R11:
             levels.append(unpack_b10g11r11(np.frombuffer(raw, "<u4").reshape(nf, n, n)))
+        elif fmt is RGBA32F:
+            levels.append(np.frombuffer(raw, "<f4").reshape(nf, n, n, 4).astype(np.float64))
+        elif fmt in (RGBA8, RGBA8_SRGB):
+            v = np.frombuffer(raw, np.uint8).reshape(nf, n, n, 4) / 255.0
+            if fmt is RGBA8_SRGB:
+                c = v[..., :3]
+                v[..., :3] = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+            levels.append(v)
         else:
             c = 4 if fmt is RGBA16F else 1
             levels.append(np.frombuffer(raw, "<f2").reshape(nf, n, n, c).astype(np.float64))

@@ -139,12 +139,13 @@ def test_same_input_same_bytes(exported, tiny_run, tmp_path, cli):
             assert (again / p.relative_to(exported)).read_bytes() == p.read_bytes(), p
 
 
-def test_b10g11r11_option(tiny_run, tmp_path, cli):
-    r = cli("export", tiny_run["dir"], "--out", tmp_path / "e", "--format", "b10g11r11",
+@pytest.mark.parametrize("fmt,vk", [("b10g11r11", 122), ("rgba32f", 109)])
+def test_format_option(tiny_run, tmp_path, cli, fmt, vk):
+    r = cli("export", tiny_run["dir"], "--out", tmp_path / "e", "--format", fmt,
                 "--size", "16")
     assert r.returncode == 0, r.stderr
     k = ktx2.read_ktx2((tmp_path / "e" / "environment.ktx2").read_bytes())
-    assert (k["header"]["vk_format"], k["header"]["width"], len(k["levels"])) == (122, 16, 5)
+    assert (k["header"]["vk_format"], k["header"]["width"], len(k["levels"])) == (vk, 16, 5)
 
 
 def _copy_run(tiny_run, tmp_path):

@@ -130,3 +130,54 @@ def test_packed_floats_round_to_the_nearest_code(mb):
     mids = (values[1:] + values[:-1]) / 2
     tie_codes = encode_ufloat(mids, mb)
     assert np.all(tie_codes % 2 == 0)
+
+
+def test_rgba32f_fields_and_pixels():
+    """vkFormat 109, typeSize 4, 16-byte texels (levels 16-aligned), DFD samples 32 bits each,
+    FLOAT | SIGNED with bounds −1 / 1; pixels exact in float32, alpha 1."""
+    levels = chain(4, seed=3)
+    buf = ktx2.write_ktx2(levels, ktx2.RGBA32F, META)
+    assert struct.unpack_from("<9I", buf, 12) == (109, 4, 4, 4, 0, 0, 6, 3, 0)
+    r = ktx2.read_ktx2(buf)
+    assert [(s["bit_offset"], s["bit_length"], s["channel"], s["qualifiers"], s["lower"],
+             s["upper"]) for s in r["dfd"]["samples"]] == [
+        (32 * i, 32, ch, 0xC0, 0xBF800000, 0x3F800000) for i, ch in enumerate((0, 1, 2, 15))]
+    assert r["dfd"]["bytes_plane"][0] == 16 and r["dfd"]["transfer"] == 1
+    assert all(e["offset"] % 16 == 0 for e in r["level_index"])
+    for got, want in zip(r["levels"], levels):
+        np.testing.assert_array_equal(got[..., :3], want.astype(np.float32))
+        assert np.all(got[..., 3] == 1.0)
+
+
+@pytest.mark.parametrize("fmt,vk,transfer", [(ktx2.RGBA8, 37, 1), (ktx2.RGBA8_SRGB, 43, 2)])
+def test_rgba8_unorm_and_srgb(fmt, vk, transfer):
+    """8-bit: values clamped to [0, 1]; the sRGB format's DFD says transfer 2 (sRGB) with alpha
+    marked linear (KDF: KHR_DF_SAMPLE_DATATYPE_LINEAR), and its RGB round-trips through the
+    curve within half a code step."""
+    rng = np.random.default_rng(5)
+    levels = [rng.random((6, n, n, 3)) for n in (4, 2, 1)]
+    r = ktx2.read_ktx2(ktx2.write_ktx2(levels, fmt, META))
+    assert r["header"]["vk_format"] == vk and r["header"]["type_size"] == 1
+    assert r["dfd"]["transfer"] == transfer
+    quals = [s["qualifiers"] for s in r["dfd"]["samples"]]
+    assert quals == ([0, 0, 0, 0x10] if transfer == 2 else [0, 0, 0, 0])
+    for got, want in zip(r["levels"], levels):
+        if transfer == 1:
+            np.testing.assert_allclose(got[..., :3], want, atol=0.5 / 255 + 1e-12)
+        else:     # half a code in the encoded domain, times the curve's steepest slope there
+            enc = np.where(want <= 0.0031308, 12.92 * want, 1.055 * want ** (1 / 2.4) - 0.055)
+            top = np.minimum(enc + 0.5 / 255, 1.0)
+            slope = np.maximum(2.4 / 1.055 * ((top + 0.055) / 1.055) ** 1.4, 1 / 12.92)
+            assert np.all(np.abs(got[..., :3] - want) <= 0.5 / 255 * slope + 1e-9)
+        assert np.all(got[..., 3] == 1.0)
+
+
+def test_unknown_format_and_supercompression_are_named():
+    buf = bytearray(ktx2.write_ktx2(chain(2), ktx2.RGBA16F, META))
+    struct.pack_into("<I", buf, 12, 131)                       # BC1_RGB_UNORM_BLOCK
+    with pytest.raises(ValueError, match="vkFormat 131 is not one sgpipe reads"):
+        ktx2.read_ktx2(bytes(buf))
+    buf = bytearray(ktx2.write_ktx2(chain(2), ktx2.RGBA16F, META))
+    struct.pack_into("<I", buf, 12 + 32, 2)                    # Zstandard
+    with pytest.raises(ValueError, match="supercompression scheme 2"):
+        ktx2.read_ktx2(bytes(buf))
