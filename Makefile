@@ -9,7 +9,7 @@ OUT    ?= out
 
 VALIDATE_STAMP := $(VENV)/.sgpipe-validate-installed
 
-.PHONY: setup opencl browser demo test fuzz bench validate figures samples doctor clean
+.PHONY: setup opencl vulkan browser demo test fuzz bench validate figures samples doctor clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -27,7 +27,7 @@ $(VALIDATE_STAMP): $(STAMP)
 	$(PY) -m pip install -q -e '.[test,dask,validate]'
 	touch $(VALIDATE_STAMP)
 
-setup: $(STAMP) opencl browser
+setup: $(STAMP) opencl vulkan browser
 
 # headless Chromium + chromedriver for the HTML report's browser test
 browser: $(STAMP)
@@ -35,6 +35,10 @@ browser: $(STAMP)
 
 opencl: $(STAMP)
 	@bash tools/ensure_opencl.sh $(PY)
+
+# Mesa's lavapipe: the CPU Vulkan device the Khronos glTF-IBL-Sampler runs on in the tests
+vulkan: $(STAMP)
+	@bash tools/ensure_vulkan.sh
 
 doctor: setup
 	$(SGPIPE) doctor
