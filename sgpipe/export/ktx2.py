@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sgpipe.export.packed_float import pack_b10g11r11, to_half_rgba, unpack_b10g11r11
+from sgpipe.io.png import linear_to_srgb, srgb_to_linear
 
 IDENTIFIER = bytes([0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A])
 HEADER_BYTES = 80                    # identifier 12 + 9 × u32 + index 4 × u32 + 2 × u64
@@ -130,8 +131,7 @@ def level_bytes(faces: np.ndarray, fmt: KtxFormat) -> bytes:
     if fmt in (RGBA8, RGBA8_SRGB):
         v = np.clip(_rgba(faces), 0.0, 1.0)
         if fmt is RGBA8_SRGB:
-            c = v[..., :3]
-            v[..., :3] = np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
+            v[..., :3] = linear_to_srgb(v[..., :3])
         return np.round(v * 255.0).astype(np.uint8).tobytes()
     if fmt is R16F:
         return np.clip(faces[..., 0], -65504.0, 65504.0).astype("<f2").tobytes()
@@ -237,8 +237,7 @@ def read_ktx2(buf: bytes) -> dict:
         elif fmt in (RGBA8, RGBA8_SRGB):
             v = np.frombuffer(raw, np.uint8).reshape(nf, n, n, 4) / 255.0
             if fmt is RGBA8_SRGB:
-                c = v[..., :3]
-                v[..., :3] = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+                v[..., :3] = srgb_to_linear(v[..., :3])
             levels.append(v)
         else:
             c = 4 if fmt is RGBA16F else 1

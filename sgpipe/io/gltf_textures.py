@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from sgpipe.errors import BadInput
+from sgpipe.io.png import srgb_to_linear
 
 REPEAT, CLAMP, MIRROR = 10497, 33071, 33648
 SRGB_TEXTURES = ("baseColorTexture", "emissiveTexture")
@@ -63,12 +64,6 @@ def _wrap(i, n, mode) -> np.ndarray:
         p = np.mod(i, 2 * n)
         return np.where(p < n, p, 2 * n - 1 - p)
     return np.mod(i, n)
-
-
-def srgb_to_linear(c) -> np.ndarray:
-    """The sRGB transfer function's inverse (IEC 61966-2-1)."""
-    c = np.asarray(c, float)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
 def _decode(data: bytes, path: Path, element: str) -> np.ndarray:

@@ -15,11 +15,22 @@ from sgpipe.io.disk import raise_if_disk_full
 from sgpipe.io.exr import oiio_error
 
 
+def linear_to_srgb(x) -> np.ndarray:
+    """The sRGB transfer function (IEC 61966-2-1) of linear values in [0, 1]."""
+    x = np.asarray(x, np.float64)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+def srgb_to_linear(c) -> np.ndarray:
+    """The sRGB transfer function's inverse: encoded values in [0, 1] to linear."""
+    c = np.asarray(c, np.float64)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
 def tonemap_srgb(image: np.ndarray, *, exposure: float = 0.0) -> np.ndarray:
     """Linear radiance -> 8-bit sRGB: scale by 2**exposure, clamp to [0, 1], sRGB OETF."""
     x = np.clip(np.nan_to_num(np.asarray(image, np.float64)) * (2.0 ** exposure), 0.0, 1.0)
-    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
-    return np.round(srgb * 255.0).astype(np.uint8)
+    return np.round(linear_to_srgb(x) * 255.0).astype(np.uint8)
 
 
 def write_png(path: str | os.PathLike, image: np.ndarray, *, exposure: float = 0.0,

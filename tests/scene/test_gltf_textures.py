@@ -15,8 +15,8 @@ import pytest
 
 from sgpipe.errors import BadInput
 from sgpipe.io.gltf import read_gltf
-from sgpipe.io.gltf_textures import (CLAMP, MIRROR, REPEAT, GltfTexture, material_texture,
-                                     srgb_to_linear)
+from sgpipe.io.gltf_textures import CLAMP, MIRROR, REPEAT, GltfTexture, material_texture
+from sgpipe.io.png import srgb_to_linear
 
 sys.path.insert(0, str(Path(__file__).parent))
 import gltf_builder as gb  # noqa: E402
