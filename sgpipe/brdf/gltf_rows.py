@@ -17,7 +17,7 @@ import numpy as np
 from sgpipe.brdf.base import GLTF_DIELECTRIC_F0, LUMINANCE, cosine_sample, half_vector, reflect
 from sgpipe.brdf.fresnel import fresnel_schlick
 from sgpipe.brdf.models import GLTF_MIN_ROUGHNESS
-from sgpipe.brdf.ndf import _aniso_phi, _from_polar
+from sgpipe.brdf.ndf import GGXNDF
 from sgpipe.brdf.shadowing import smith_g2_ggx_correlated
 
 
@@ -34,8 +34,8 @@ class GltfRows:
         self.metallic = np.broadcast_to(np.asarray(metallic, float), (n,)).copy()
         rough = np.broadcast_to(np.asarray(roughness, float), (n,))
         aniso = np.broadcast_to(np.asarray(anisotropy, float), (n,))
-        self.av = np.maximum(rough, GLTF_MIN_ROUGHNESS) ** 2
-        self.au = self.av + (1.0 - self.av) * aniso * aniso
+        av = np.maximum(rough, GLTF_MIN_ROUGHNESS) ** 2
+        self.ndf = GGXNDF(av + (1.0 - av) * aniso * aniso, av)     # one α pair per row
         m = self.metallic[:, None]
         self.kd = (1.0 - m) * self.base
         self.f0 = (1.0 - m) * GLTF_DIELECTRIC_F0 + m * self.base
@@ -51,15 +51,12 @@ class GltfRows:
 
     def take(self, idx) -> "GltfRows":
         out = GltfRows.__new__(GltfRows)
-        for k in ("base", "metallic", "av", "au", "kd", "f0", "p_spec"):
+        for k in ("base", "metallic", "kd", "f0", "p_spec"):
             setattr(out, k, getattr(self, k)[idx])
+        out.ndf = GGXNDF(self.ndf.au[idx], self.ndf.av[idx])
         return out
 
     # -- evaluation ------------------------------------------------------------------------
-    def _ndf(self, h):
-        """Peak-normalised GGX D (as GGXNDF.eval) with the rows' α."""
-        q = h[:, 0] ** 2 / self.au ** 2 + h[:, 1] ** 2 / self.av ** 2 + h[:, 2] ** 2
-        return np.where(h[:, 2] > 0, 1.0 / np.maximum(q, 1e-300) ** 2, 0.0)
 
     def diffuse(self, o, i):
         """(1 − metallic) c/π (1 − F_0.04(o·h)), (N, 3)."""
@@ -73,8 +70,9 @@ class GltfRows:
         o, i = np.asarray(o, float), np.asarray(i, float)
         up = (o[:, 2] > 0) & (i[:, 2] > 0)
         h = half_vector(o, i)
-        g2 = smith_g2_ggx_correlated(o, i, self.au, self.av)
-        d = self._ndf(h) / (np.pi * self.au * self.av)
+        au, av = self.ndf.au, self.ndf.av
+        g2 = smith_g2_ggx_correlated(o, i, au, av)
+        d = self.ndf.eval(h) / (np.pi * au * av)
         scale = g2 * d / (4.0 * np.where(up, o[:, 2] * i[:, 2], 1.0))
         f = fresnel_schlick(np.abs(_dot(o, h)), self.f0)
         return np.where(up[:, None], f * scale[:, None], 0.0)
@@ -92,11 +90,7 @@ class GltfRows:
         uu = np.where(spec, u1 / self.p_spec,
                       (u1 - self.p_spec) / np.maximum(1.0 - self.p_spec, 1e-300))
         uu = np.clip(uu, 0.0, 1.0 - 1e-16)
-        phi = _aniso_phi(uu, self.au, self.av)
-        c2, s2 = np.cos(phi) ** 2, np.sin(phi) ** 2
-        v = np.minimum(u2, 1.0 - 1e-16)
-        tan2 = v / ((1.0 - v) * (c2 / self.au ** 2 + s2 / self.av ** 2))
-        h = _from_polar(1.0 / np.sqrt(1.0 + tan2), phi)
+        h = self.ndf.sample_h(uu, u2)
         i = np.where(spec[:, None], reflect(o, h), cosine_sample(uu, u2))
         pdf = self.pdf(o, i)
         return i, np.where(spec & (_dot(o, h) <= 0), 0.0, pdf)
@@ -107,5 +101,5 @@ class GltfRows:
         h = half_vector(o, i)
         oh = _dot(o, h)
         ok = (oh > 1e-12) & (h[:, 2] > 0)
-        ph = self._ndf(h) * np.maximum(h[:, 2], 0.0) / (np.pi * self.au * self.av)
+        ph = self.ndf.pdf_h(h)
         return pd + self.p_spec * np.where(ok, ph / (4.0 * np.where(ok, oh, 1.0)), 0.0)

@@ -123,9 +123,13 @@ class GGXNDF(NDF):
     name = "ggx"
 
     def __init__(self, alpha_u, alpha_v=None):
-        self.au = float(alpha_u)
-        self.av = float(alpha_u if alpha_v is None else alpha_v)
-        self.isotropic = self.au == self.av
+        # a material's roughness, or one per row (N,) of h / u arrays (N, ...): textured
+        # roughness (sgpipe.brdf.gltf_rows)
+        def alpha(a):
+            return float(a) if np.ndim(a) == 0 else np.asarray(a, float)
+        self.au = alpha(alpha_u)
+        self.av = alpha(alpha_u if alpha_v is None else alpha_v)
+        self.isotropic = bool(np.all(self.au == self.av))
 
     def eval(self, h):
         h = np.asarray(h, float)
