@@ -237,12 +237,17 @@ def _read_mesh_file(path: Path, key: str | None):
     return P, F, N, UV
 
 
-def _read_gltf_primitives(path: Path, node: int | None, primitive: int | None, key: str):
+def _read_gltf_primitives(path: Path, node: int | None, primitive: int | None, key: str,
+                          assets: dict | None = None):
     """Positions, faces, normals, uvs|None of a glTF file's primitives in its scene's world
-    space: all of them, or one node's (one primitive of it), concatenated (sgpipe.io.gltf)."""
+    space: all of them, or one node's (one primitive of it), concatenated (sgpipe.io.gltf).
+    `assets`: files already read, by path (a scene's primitives share their file)."""
     from sgpipe.io.gltf import primitive_geometry, read_gltf
+    assets = {} if assets is None else assets
     try:
-        asset = read_gltf(path)
+        if path not in assets:
+            assets[path] = read_gltf(path)
+        asset = assets[path]
         refs = [r for r in asset.primitives if node is None or (
             r.node == node and (primitive is None or r.primitive == primitive))]
         parts = [primitive_geometry(asset, r) for r in refs]
@@ -280,14 +285,16 @@ def sphere_mesh(radius: float, subdivisions: int):
     return n * float(radius), np.asarray(s.faces, np.int64), n
 
 
-def load_object(obj, index: int = 0, *, sphere_subdivisions: int = 4) -> MeshGeometry:
-    """One `scene.objects[i]` entry (ObjectSpec) → world-space MeshGeometry."""
+def load_object(obj, index: int = 0, *, sphere_subdivisions: int = 4,
+                assets: dict | None = None) -> MeshGeometry:
+    """One `scene.objects[i]` entry (ObjectSpec) → world-space MeshGeometry; `assets`: glTF
+    files already read by the caller's other objects (filled as they are read)."""
     M = object_matrix(obj.translate, obj.rotate_deg, obj.scale)
     if obj.mesh is not None:
         key = f"scene.objects.{index}.mesh"
         if str(obj.mesh).lower().endswith((".gltf", ".glb")):
             P, F, N, UV = _read_gltf_primitives(Path(obj.mesh), obj.gltf_node,
-                                                obj.gltf_primitive, key)
+                                                obj.gltf_primitive, key, assets)
         else:
             P, F, N, UV = _read_mesh_file(Path(obj.mesh), key)
         P, N = _transform(M, P, N)   # NaN stays NaN: build_mesh reports it
@@ -303,7 +310,8 @@ def load_scene(scene, *, sphere_subdivisions: int = 4) -> list[MeshGeometry]:
     """Every object of a SceneSection, in config order."""
     if scene is None or not scene.objects:
         raise BadInput("the scene has no objects", key="scene.objects")
-    return [load_object(o, i, sphere_subdivisions=sphere_subdivisions)
+    assets: dict = {}        # a glTF file is read once for all its primitives' objects
+    return [load_object(o, i, sphere_subdivisions=sphere_subdivisions, assets=assets)
             for i, o in enumerate(scene.objects)]
 
 

@@ -38,6 +38,7 @@ def load_trace_objects(cfg, vis_dir: str | Path | None = None) -> list[TraceObje
         return []
     sub = cfg.visibility.sphere_subdivisions if cfg.visibility else 4
     out = []
+    assets: dict = {}            # a glTF file is read once for all its primitives' objects
     for k, spec in enumerate(cfg.scene.objects):
         if spec.sphere_radius is not None:
             out.append(TraceObject.sphere(spec.name, center=spec.translate,
@@ -46,7 +47,7 @@ def load_trace_objects(cfg, vis_dir: str | Path | None = None) -> list[TraceObje
             continue
         g = _geometry(Path(vis_dir) if vis_dir else None, spec.name)
         if g is None:
-            g = load_object(spec, k, sphere_subdivisions=sub)
+            g = load_object(spec, k, sphere_subdivisions=sub, assets=assets)
         out.append(TraceObject.mesh(spec.name, g.positions, g.faces, normals=g.normals,
                                     tangents=g.tangents, uvs=repeated_uvs(g.uvs, spec)))
     return out

@@ -210,6 +210,7 @@ def object_maps(cfg) -> list:
     from sgpipe.render.setup import read_texture
     tex = {t.material: t for t in cfg.render.material_textures}
     cache: dict = {}
+    assets: dict = {}           # glTF files, read once for all their primitives' objects
 
     def image(path, key):
         if path not in cache:
@@ -224,15 +225,15 @@ def object_maps(cfg) -> list:
                                                                f"scene.objects.{k}.normal_map"),
             kd_map=image(t.kd_map, "render.material_textures.kd_map") if t and t.kd_map else None,
             ks_map=image(t.ks_map, "render.material_textures.ks_map") if t and t.ks_map else None,
-            gltf=_gltf_surface(cfg, o)))
+            gltf=_gltf_surface(cfg, o, assets)))
     return out
 
 
-def _gltf_surface(cfg, obj):
+def _gltf_surface(cfg, obj, assets: dict):
     """The textured glTF material of an object that is one glTF primitive (gltf_node and
     gltf_primitive set) rendered with a `gltf_pbr` material: the material's factors (its
     params) times the primitive's glTF material's base colour and metallic-roughness textures;
-    None when the material has neither texture."""
+    None when the material has neither texture. `assets`: glTF files read so far, by path."""
     if obj.gltf_node is None or obj.gltf_primitive is None or cfg.fit is None:
         return None
     spec = next((m for m in cfg.fit.materials if m.name == obj.material), None)
@@ -241,7 +242,9 @@ def _gltf_surface(cfg, obj):
     from sgpipe.io.gltf import read_gltf
     from sgpipe.io.gltf_textures import material_texture
     from sgpipe.reference.surface import GltfSurface
-    asset = read_gltf(obj.mesh)
+    if obj.mesh not in assets:
+        assets[obj.mesh] = read_gltf(obj.mesh)
+    asset = assets[obj.mesh]
     ref = next((r for r in asset.primitives
                 if (r.node, r.primitive) == (obj.gltf_node, obj.gltf_primitive)), None)
     if ref is None or ref.material is None:

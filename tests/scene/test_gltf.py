@@ -264,3 +264,14 @@ render:
     # 28.7-29.6 dB measured at 128-1024 spp: at 32² without supersampling the silhouette
     # pixels dominate; the BRDF's own fidelity is floored in tests/render/test_fidelity_floors.py
     assert surface_db >= 26.0
+
+
+def test_a_file_is_read_once_for_all_its_objects(tmp_path, asset, monkeypatch):
+    """load_scene reads a glTF file once, however many of its primitives are objects."""
+    import sgpipe.io.gltf as reader
+    cfg = load_config(_config(tmp_path, f"scene: {{gltf: [{{file: {asset}}}]}}\n"))
+    calls = []
+    real = reader.read_gltf
+    monkeypatch.setattr(reader, "read_gltf", lambda p: calls.append(p) or real(p))
+    assert len(load_scene(cfg.scene)) == 2
+    assert len(calls) == 1
