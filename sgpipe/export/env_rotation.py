@@ -2,8 +2,9 @@
 config, the glTF quaternion of R and the SH9 coefficients of the turned environment
 (Ramamoorthi & Hanrahan 2001: the cosine convolution is per band, so it commutes with rotation).
 
-The cubemaps (KTX2, DDS, the glTF light's images) stay in map space; the glTF light carries R
-as its `rotation`, irradiance_sh9.json holds the world-frame (turned) coefficients."""
+The cubemaps (KTX2, DDS, the glTF light's images) stay unturned (in the export's orientation,
+sgpipe.export.orientation); the glTF light carries R (times the orientation's quarter turn) as
+its `rotation`, irradiance_sh9.json holds the world-frame (turned) coefficients."""
 
 from __future__ import annotations
 
@@ -88,7 +89,8 @@ def rotate_sh9_document(doc: dict, R: np.ndarray, spec: dict) -> dict:
         "note": "render.environment_rotation (world <- map: what the map shows in direction "
                 "d appears in world direction R d): irradiance and radiance are those of the "
                 "turned environment in world coordinates; map_irradiance / map_radiance are "
-                "the unturned map's (the frame of environment.ktx2 / .dds)"}
+                "the unturned map's (sgpipe's map space; export.json's orientation gives the "
+                "frame of environment.ktx2 / .dds)"}
     out["map_irradiance"] = doc["irradiance"]
     out["map_radiance"] = doc["radiance"]
     return out

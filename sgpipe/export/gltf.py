@@ -149,8 +149,9 @@ def build_gltf(objects: list[VertexObject], *, irradiance: np.ndarray,
                rotation: np.ndarray | None = None) -> tuple[gl.GLTF2, bytes]:
     """The glTF document and its binary buffer: one node per object (a transport object whose
     vertices are a visibility object's shares its mesh), a scene with the IBL. `rotation`
-    (world ← map, render.environment_rotation) becomes the light's `rotation`; `irradiance`
-    and the specular images are in map space (the runtime turns them by it)."""
+    (world ← the cube's frame: render.environment_rotation times the export orientation's
+    turn) becomes the light's `rotation`; `irradiance` and the specular images are in the
+    cube's frame (the runtime turns them by it)."""
     doc = gl.GLTF2(asset=gl.Asset(version="2.0", generator="sgpipe export"))
     b = _Builder(doc)
     for obj in objects:

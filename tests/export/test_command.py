@@ -106,7 +106,19 @@ def test_gltf_image_based_light(exported):
     (light,) = doc.extensions[gltf.EXTENSION]["lights"]
     assert doc.scenes[doc.scene].extensions[gltf.EXTENSION] == {"light": 0}
     sh = json.loads((exported / "irradiance_sh9.json").read_text())
-    assert light["irradianceCoefficients"] == sh["irradiance"]
+    # the default glTF orientation: the light's cube frame shows at e what the world shows at
+    # M·e; its rotation turns e to M·e and its irradiance is the world's read at M·e
+    from scipy.spatial.transform import Rotation
+    from sgpipe.export.orientation import GLTF_TO_MAP
+    from sgpipe.export.sh9 import sh9_irradiance
+    e = np.random.default_rng(3).normal(size=(40, 3))
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+    np.testing.assert_allclose(Rotation.from_quat(light["rotation"]).apply(e), e @ GLTF_TO_MAP.T,
+                               atol=1e-12)
+    np.testing.assert_allclose(sh9_irradiance(light["irradianceCoefficients"], e),
+                               sh9_irradiance(sh["irradiance"], e @ GLTF_TO_MAP.T), rtol=1e-10)
+    np.testing.assert_allclose(light["extras"]["sgpipe_world_irradiance"], sh["irradiance"],
+                               rtol=1e-10, atol=1e-12)
     assert light["specularImageSize"] == 32
     ids = light["specularImages"]
     assert [len(r) for r in ids] == [6, 6]                      # 32 and 16: down to 16²
@@ -170,8 +182,10 @@ def test_missing_artifact_is_one_line_exit_2_nothing_written(tiny_run, tmp_path,
     assert not (tmp_path / "deep").exists()
 
 
-def test_unknown_format_and_size_are_bad_input(tiny_run, tmp_path, cli):
-    for args, key in ((["--format", "rgb9e5"], "--format"), (["--size", "12"], "--size")):
+def test_unknown_options_are_bad_input(tiny_run, tmp_path, cli):
+    for args, key in ((["--format", "rgb9e5"], "--format"), (["--size", "12"], "--size"),
+                      (["--only", "ktx"], "--only"), (["--prefilter", "mc"], "--prefilter"),
+                      (["--orientation", "x"], "--orientation")):
         r = cli("export", tiny_run["dir"], "--out", tmp_path / "x", *args)
         assert r.returncode == 2 and key in r.stderr and len(r.stderr.strip().splitlines()) == 1
         assert not (tmp_path / "x").exists() and list(tmp_path.iterdir()) == []

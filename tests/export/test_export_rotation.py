@@ -1,6 +1,8 @@
 """render.environment_rotation in `sgpipe export`: SH9 of the turned environment against the
 projection of the turned map, the glTF light's quaternion against R under glTF's convention,
-cubemaps left in map space, and no rotation → the same bytes as an export without it."""
+cubemaps left in map space, and no rotation → the same bytes as an export without it. These
+tests export in sgpipe's own orientation (the rotation alone); the last one adds the glTF
+orientation's quarter turn."""
 
 import json
 import shutil
@@ -18,6 +20,7 @@ from sgpipe.errors import BadInput
 from sgpipe.export import sh9
 from sgpipe.export.bundle import write_export
 from sgpipe.export.env_rotation import gltf_quaternion
+from sgpipe.export.orientation import GLTF_TO_MAP
 
 from .test_prefilter import spot_radiance
 
@@ -40,7 +43,7 @@ def _with_rotation(src, dst, rotation, stage="envmap"):
 def turned(tiny_run, tmp_path_factory):
     root = tmp_path_factory.mktemp("rot")
     run = _with_rotation(tiny_run["dir"], root / "run", {"axis": AXIS, "angle_deg": ANGLE})
-    return write_export(run, root / "export")
+    return write_export(run, root / "export", orientation="sgpipe")
 
 
 def test_sh9_is_the_projection_of_the_turned_map(tiny_run, turned):
@@ -123,10 +126,10 @@ def _files(folder):
 def test_no_rotation_is_byte_identical(tiny_run, turned, tmp_path):
     """No config, a render section without the key, or angle 0: the same bytes; a turn changes
     the glTF, SH9 JSON and export.json only (the cubemaps stay in map space)."""
-    plain = _files(write_export(tiny_run["dir"], tmp_path / "plain"))
+    plain = _files(write_export(tiny_run["dir"], tmp_path / "plain", orientation="sgpipe"))
     for i, rot in enumerate((None, {"axis": [0, 1, 0], "angle_deg": 0.0})):
         run = _with_rotation(tiny_run["dir"], tmp_path / f"run{i}", rot, stage="render")
-        assert _files(write_export(run, tmp_path / f"out{i}")) == plain
+        assert _files(write_export(run, tmp_path / f"out{i}", orientation="sgpipe")) == plain
     changed = {k for k, v in _files(turned).items() if plain.get(k) != v}
     assert changed == {"scene.gltf", "irradiance_sh9.json", "export.json"}
     info = json.loads((turned / "export.json").read_text())
@@ -140,7 +143,8 @@ def test_render_config_wins_over_envmap(tiny_run, tmp_path):
     (run / "render").mkdir()
     (run / "render" / "config.resolved.yaml").write_text(yaml.safe_dump(
         {"render": {"environment_rotation": {"axis": [0, 1, 0], "angle_deg": 90}}}))
-    doc = gl.GLTF2().load(str(write_export(run, tmp_path / "out") / "scene.gltf"))
+    out = write_export(run, tmp_path / "out", orientation="sgpipe")
+    doc = gl.GLTF2().load(str(out / "scene.gltf"))
     q = doc.extensions["EXT_lights_image_based"]["lights"][0]["rotation"]
     np.testing.assert_allclose(q, [0, np.sqrt(0.5), 0, np.sqrt(0.5)], atol=1e-15)
 
@@ -152,7 +156,31 @@ def test_render_config_wins_over_envmap(tiny_run, tmp_path):
 def test_bad_rotation_is_bad_input(tiny_run, tmp_path, rot, match):
     run = _with_rotation(tiny_run["dir"], tmp_path / "run", rot)
     with pytest.raises(BadInput, match=match) as e:
-        write_export(run, tmp_path / "out")
+        write_export(run, tmp_path / "out", orientation="sgpipe")
     assert e.value.key == "render.environment_rotation"
     assert str(e.value.file).endswith("envmap/config.resolved.yaml")
     assert not (tmp_path / "out").exists()
+
+
+def test_gltf_orientation_composes_with_the_rotation(tiny_run, tmp_path):
+    """Default (glTF) orientation and a rotation R: the light turns the cube's e to R·M·e (the
+    world direction that shows it), its irradiance is the map's read at M·e, and its world
+    irradiance is irradiance_sh9.json's; the cubemaps are those of the unturned glTF export."""
+    run = _with_rotation(tiny_run["dir"], tmp_path / "run", {"axis": AXIS, "angle_deg": ANGLE})
+    out = write_export(run, tmp_path / "out")
+    plain = write_export(tiny_run["dir"], tmp_path / "plain")
+    for name in ("environment.ktx2", "environment.dds"):
+        assert (out / name).read_bytes() == (plain / name).read_bytes()
+    R = rotation_matrix(AXIS, ANGLE)
+    light = gl.GLTF2().load(str(out / "scene.gltf")).extensions[
+        "EXT_lights_image_based"]["lights"][0]
+    e = np.random.default_rng(5).normal(size=(50, 3))
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+    np.testing.assert_allclose(quat_rotate(light["rotation"], e), e @ (R @ GLTF_TO_MAP).T,
+                               atol=1e-12)
+    sh = json.loads((out / "irradiance_sh9.json").read_text())
+    np.testing.assert_allclose(sh9.sh9_irradiance(light["irradianceCoefficients"], e),
+                               sh9.sh9_irradiance(sh["map_irradiance"], e @ GLTF_TO_MAP.T),
+                               rtol=1e-10)
+    np.testing.assert_allclose(light["extras"]["sgpipe_world_irradiance"], sh["irradiance"],
+                               rtol=1e-10, atol=1e-12)
