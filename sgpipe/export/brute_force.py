@@ -11,6 +11,7 @@ neighbours; φ wraps, rows clamp at the poles), as both tools resample it."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit, prange
@@ -115,25 +116,50 @@ def prefilter_latlong(img: np.ndarray, dirs: np.ndarray, alpha: float,
     return out
 
 
-def mip_errors(levels: list[np.ndarray], img: np.ndarray, alphas: list[float], *,
+@dataclass
+class MipTruth:
+    """Brute-force values of one mip at a sample of its texels."""
+
+    face_size: int
+    alpha: float
+    pick: np.ndarray            # flat texel indices into (6, n, n)
+    values: np.ndarray          # (len(pick), 3)
+
+
+def mip_truths(sizes: list[int], alphas: list[float], img: np.ndarray, *,
                to_map: np.ndarray | None = None, samples: int = 3000,
-               seed: int = 0) -> list[dict]:
-    """Per mip of a cubemap chain (each (6, n, n, ≥3)): the error of its texels against
-    `prefilter_latlong` of panorama `img` at GGX α `alphas[m]`, as a fraction of the mip's
-    mean: median, p99 and max over up to `samples` texels (all when fewer). `to_map`: the cube
-    shows at e what the panorama shows at to_map·e (sgpipe.export.orientation)."""
+               seed: int = 0) -> list[MipTruth]:
+    """`prefilter_latlong` of panorama `img` at up to `samples` texel centres (all when fewer)
+    of each mip (face size sizes[m], GGX α alphas[m]). `to_map`: the cube shows at e what the
+    panorama shows at to_map·e (sgpipe.export.orientation)."""
     from sgpipe.core.maps import cubemap_texel_dirs
     rng = np.random.default_rng(seed)
     out = []
-    for faces, alpha in zip(levels, alphas):
-        n = faces.shape[1]
+    for n, alpha in zip(sizes, alphas):
         dirs = cubemap_texel_dirs(n).reshape(-1, 3)
-        vals = np.asarray(faces, np.float64)[..., :3].reshape(-1, 3)
         pick = np.arange(len(dirs)) if len(dirs) <= samples else np.sort(
             rng.choice(len(dirs), samples, replace=False))
         d = dirs[pick] if to_map is None else dirs[pick] @ np.asarray(to_map).T
-        truth = prefilter_latlong(img, d, alpha)
-        err = np.abs(vals[pick] - truth).mean(1) / truth.mean()
-        out.append({"face_size": n, "alpha": float(alpha), "median": float(np.median(err)),
+        out.append(MipTruth(n, float(alpha), pick, prefilter_latlong(img, d, alpha)))
+    return out
+
+
+def errors_against(levels: list[np.ndarray], truths: list[MipTruth]) -> list[dict]:
+    """Per mip: |level − truth| (mean over RGB) as a fraction of the truth's mean — median,
+    p99 and max over the sampled texels."""
+    out = []
+    for faces, t in zip(levels, truths):
+        vals = np.asarray(faces, np.float64)[..., :3].reshape(-1, 3)[t.pick]
+        err = np.abs(vals - t.values).mean(1) / t.values.mean()
+        out.append({"face_size": t.face_size, "alpha": t.alpha, "median": float(np.median(err)),
                     "p99": float(np.quantile(err, 0.99)), "max": float(err.max())})
     return out
+
+
+def mip_errors(levels: list[np.ndarray], img: np.ndarray, alphas: list[float], *,
+               to_map: np.ndarray | None = None, samples: int = 3000,
+               seed: int = 0) -> list[dict]:
+    """errors_against(levels, mip_truths(…)) for one chain."""
+    truths = mip_truths([lv.shape[1] for lv in levels], alphas, img, to_map=to_map,
+                        samples=samples, seed=seed)
+    return errors_against(levels, truths)
