@@ -62,6 +62,9 @@ class Method:
     needs_ndf_table: bool = False  # reads the exact NDF tabulated from the BRDF
     needs_transport: bool = False  # reads the transport stage's Gaussians (render.transport_data)
     needs_normalmap: bool = False  # reads the Han07 normal-map pyramids (render.normalmap_data)
+    #: defines it always compiles with, after every other (a published variant's switches; a
+    #: value None removes the define)
+    fixed_defines: tuple[tuple[str, object], ...] = ()
 
     @cached_property
     def parameters(self) -> list[tuple[str, str]]:
@@ -128,6 +131,19 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sg", "Wang09 SG + SSDF shadows", "sg_shade",
            (PIXEL_PARAMS, SG_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",),
            needs_ndf_table=True),
+    # Wang09 §7 as published: eq 17–22 (one isotropic warped lobe, λ/(4|o·g|)), eq 39–43 (C* of
+    # eq 40 in every product, C* ⊗ ρ*_s for the specular), eq 32–33 lights through the products,
+    # eq 47–49 f_h with the appendix's coefficients (sign read as a rising sigmoid, core/fh.py),
+    # not renormalised. Kept from sgpipe: the fit stage's NDF lobes, M_o at the lobe centre,
+    # the Γ_L pyramid's accurate lookup, the point set as exact SG terms (docs/WANG09.md).
+    Method("sg_wang09", "Wang09 as published (isotropic warp, C* ⊗ ρ*_s, published f_h)",
+           "sg_shade", (PIXEL_PARAMS, SG_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",),
+           fixed_defines=(("SPEC_SUBLOBES", 1), ("WANG09_PUBLISHED", 1),
+                          ("SHARP_LIGHT", 1e30), ("FH_TABLE", None),
+                          # sgpipe.core.fh.PUBLISHED_FH_COEFFS (plain numbers: the config
+                          # imports this module without numpy's science stack)
+                          *zip(("FH_A", "FH_C3", "FH_C2", "FH_C1", "FH_C0"),
+                               (1.05, 0.204, -0.892, 2.995, 0.067)))),
     Method("gmm", "Töral19 per-view vMF mixtures with MIP lookups", "gmm_shade",
            (PIXEL_PARAMS, MIP_PARAMS, GMM_POINT_PARAMS, "const int interp", TAIL_PARAMS),
            defines=("MAX_GMM_LOBES", "GMM_TAPS", "GMM_ROTATE"), baseline_shadows=True,

@@ -222,6 +222,11 @@ class Renderer:
                      "GMM_TAPS": max(1, self.gmm_taps), "GMM_ROTATE": self.gmm_carry}
         d.update({k: per_scene[k] for k in METHODS[method].defines})
         d.update(self.env.rotation_defines())     # render.environment_rotation (cubemap.h)
+        for k, v in METHODS[method].fixed_defines:
+            if v is None:
+                d.pop(k, None)
+            else:
+                d[k] = v
         return d
 
     def rotate_environment(self, rotation) -> None:

@@ -14,7 +14,11 @@
  * lobes: each ASG's i-space sub-lobes (asg.h) go through the same M_o, cosine, SSDF and Γ_L.
  * The environment's point set (a sun) and lights sharper than SHARP_LIGHT are shaded with the
  * exact BRDF M_o(i) D(h) (the NDF table of materials.tabulate_ndf, as `fis` reads it) at their
- * direction, SSDF horizon, not through the lobes, whenever the material has that table. */
+ * direction, SSDF horizon, not through the lobes, whenever the material has that table.
+ * WANG09_PUBLISHED (method `sg_wang09`, with SPEC_SUBLOBES 1, SHARP_LIGHT 1e30 and the
+ * published f_h coefficients): the paper's own chain — C* ⊗ ρ*_s (eq 41 / 43) instead of
+ * spec_cosine, SG lobes only (no ASG), every light and the point set through the products
+ * (no exact-BRDF or sharp-light limits), f_h as eq 49 prints it (ssdf.h). */
 #include "sg.h"
 #include "asg.h"
 #include "ssdf.h"
@@ -114,7 +118,11 @@ __kernel void sg_shade(SG_SHADE_ARGS)
     /* The point set (a sun) with the exact BRDF where the material has its NDF table: a delta
      * light needs ρ at one direction, and the lobes' Gaussian fall-off loses GGX's power-law
      * tail, which a sun 10⁴× the sky lifts above white far from the highlight. */
+#ifdef WANG09_PUBLISHED
+    int exact_pts = 0;
+#else
     int exact_pts = ndf.w && !(flags & FLAG_NO_ENV_SPECULAR);
+#endif
     for (int k = 0; exact_pts && k < n_pts; ++k) {
         float3 lg = to_local(pyr_pts[2 * k].xyz, T, B, N);
         float3 lp = quat_rotate(qi, lg);
@@ -124,7 +132,11 @@ __kernel void sg_shade(SG_SHADE_ARGS)
                * fh_hat(vis_theta(&vis, lg), SG_POINT_LAMBDA))
               * mf_M(m, tables, ks, op, lp) * pyr_pts[2 * k + 1].xyz;
     }
+#ifdef WANG09_PUBLISHED
+    int na = 0;
+#else
     int na = asg_count(lobes, lobe0, nsg);
+#endif
     int nl = na > 0 ? 0 : min(nsg, MAX_NDF_LOBES);
     for (int j = 0; j < nl + na; ++j) {
         SG sub[SPEC_SUBLOBES];
@@ -148,7 +160,11 @@ __kernel void sg_shade(SG_SHADE_ARGS)
             if (j < nl) w = sub[k];
             else if (!asg_sublobe(&plan, k, &w)) continue;
             w.mu *= mf_M(m, tables, ks, op, lift(w.p, 0.05f));
+#ifdef WANG09_PUBLISHED
+            SG s = sg_product(w, cosq);              /* C* ⊗ ρ*_s, eq 41 / 43 */
+#else
             SG s = spec_cosine(w);
+#endif
             w.p = quat_rotate(q, w.p);
             s.p = quat_rotate(q, s.p);
             /* Environment (eq 41): ⊗ V^d (eq 31), rotate to world, Γ_L lookup (eq 35); the
