@@ -124,6 +124,29 @@ NM_PARAMS = """
     __global const float4 *pyr_pts, const int n_pts,
     __global const float4 *pyr_raw, const int raw_n"""
 
+#: What makes `sg_wang09` Wang09 §7 as published, one entry per sgpipe improvement that `sg`
+#: has over the paper (its compile-time defines; None removes one). `render.sg_wang09_adds`
+#: names improvements to give `sg_wang09` back — all of them make it `sg` (a test checks), one
+#: at a time they make the ablation ladder of docs/results/wang09.md.
+WANG09_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
+    # eq 17–21: one isotropic warped lobe, sharpness λ/(4|o·g|) (sg: 3 sub-lobes, anisotropic)
+    "warp3": (("SPEC_SUBLOBES", 1),),
+    # eq 41 / 43: C* ⊗ ρ*_s (sg: each sub-lobe times its expected clamped cosine)
+    "spec_cosine": (("W09_CSTAR_SPEC", 1),),
+    # SG NDF lobes only (sg: the fit's ASG lobes when it wrote them)
+    "asg": (("W09_NO_ASG", 1),),
+    # eq 47–49 with the printed coefficients (sgpipe.core.fh.PUBLISHED_FH_COEFFS, plain
+    # numbers: the config imports this module), not renormalised at π/2 nor capped
+    # (sg: render.fh, renormalised and capped at the lobe's integral)
+    "fh": (("W09_FH_RAW", 1), ("FH_TABLE", None),
+           *zip(("FH_A", "FH_C3", "FH_C2", "FH_C1", "FH_C0"),
+                (1.05, 0.204, -0.892, 2.995, 0.067))),
+    # eq 42–43 for every light (sg: lights sharper than λ 64 as E max(0, n·l) f̂_h)
+    "sharp_lights": (("SHARP_LIGHT", 1e30),),
+    # the lobes for the point set and sharp lights (sg: the exact BRDF from the NDF table)
+    "exact_brdf": (("W09_NO_EXACT", 1),),
+}
+
 #: The Han07 normal-map methods (stable names: the figures build on them).
 NORMALMAP_METHODS = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh")
 
@@ -131,19 +154,10 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sg", "Wang09 SG + SSDF shadows", "sg_shade",
            (PIXEL_PARAMS, SG_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",),
            needs_ndf_table=True),
-    # Wang09 §7 as published: eq 17–22 (one isotropic warped lobe, λ/(4|o·g|)), eq 39–43 (C* of
-    # eq 40 in every product, C* ⊗ ρ*_s for the specular), eq 32–33 lights through the products,
-    # eq 47–49 f_h with the appendix's coefficients (sign read as a rising sigmoid, core/fh.py),
-    # not renormalised. Kept from sgpipe: the fit stage's NDF lobes, M_o at the lobe centre,
-    # the Γ_L pyramid's accurate lookup, the point set as exact SG terms (docs/WANG09.md).
+    # Wang09 §7 as published: sg's kernel with every switch of WANG09_SWITCHES (docs/WANG09.md)
     Method("sg_wang09", "Wang09 as published (isotropic warp, C* ⊗ ρ*_s, published f_h)",
            "sg_shade", (PIXEL_PARAMS, SG_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",),
-           fixed_defines=(("SPEC_SUBLOBES", 1), ("WANG09_PUBLISHED", 1),
-                          ("SHARP_LIGHT", 1e30), ("FH_TABLE", None),
-                          # sgpipe.core.fh.PUBLISHED_FH_COEFFS (plain numbers: the config
-                          # imports this module without numpy's science stack)
-                          *zip(("FH_A", "FH_C3", "FH_C2", "FH_C1", "FH_C0"),
-                               (1.05, 0.204, -0.892, 2.995, 0.067)))),
+           fixed_defines=tuple(d for ds in WANG09_SWITCHES.values() for d in ds)),
     Method("gmm", "Töral19 per-view vMF mixtures with MIP lookups", "gmm_shade",
            (PIXEL_PARAMS, MIP_PARAMS, GMM_POINT_PARAMS, "const int interp", TAIL_PARAMS),
            defines=("MAX_GMM_LOBES", "GMM_TAPS", "GMM_ROTATE"), baseline_shadows=True,

@@ -18,7 +18,7 @@ from sgpipe.render import opencl
 from sgpipe.render.envdata import EnvData
 from sgpipe.render.headers import fh_coefficients, kernel_headers
 from sgpipe.render.materials import MaterialTable
-from sgpipe.render.methods import METHODS
+from sgpipe.render.methods import METHODS, WANG09_SWITCHES
 from sgpipe.render.records import ObjectFloatSlot, ObjectSlot
 
 
@@ -122,12 +122,14 @@ class Renderer:
     def __init__(self, *, env: EnvData, materials: MaterialTable, objects: list[ObjectShading],
                  textures: Textures | None = None, lights: list[Light] = (),
                  env_scale: float = 1.0, nv: int | None = None, fh_mode: str = "table",
-                 gmm_taps: int = 16, gmm_carry: str = "warp", gmm_points: bool = True):
+                 gmm_taps: int = 16, gmm_carry: str = "warp", gmm_points: bool = True,
+                 sg_wang09_adds: tuple[str, ...] = ()):
         self.ctx, self.queue = opencl.get_context()
         self.env, self.materials, self.objects = env, materials, list(objects)
         self.env_scale = float(env_scale)
         self.headers = kernel_headers(fh_mode)
         self.fh_mode = fh_mode
+        self.sg_wang09_adds = tuple(sg_wang09_adds)
         self.gmm_taps = int(gmm_taps)
         self.gmm_carry = {"none": 0, "rotate": 1, "warp": 2}[gmm_carry]   # GMM_ROTATE
         self.gmm_points = bool(gmm_points)   # gmm: residual MIP chain + exact point set
@@ -222,7 +224,11 @@ class Renderer:
                      "GMM_TAPS": max(1, self.gmm_taps), "GMM_ROTATE": self.gmm_carry}
         d.update({k: per_scene[k] for k in METHODS[method].defines})
         d.update(self.env.rotation_defines())     # render.environment_rotation (cubemap.h)
+        given_back = {k for name in (self.sg_wang09_adds if method == "sg_wang09" else ())
+                      for k, _ in WANG09_SWITCHES[name]}
         for k, v in METHODS[method].fixed_defines:
+            if k in given_back:
+                continue
             if v is None:
                 d.pop(k, None)
             else:

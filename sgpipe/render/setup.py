@@ -102,7 +102,8 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
     renderer = Renderer(env=env, materials=pack_materials(mats), objects=shading,
                         textures=textures, lights=lights_of(rs), env_scale=environment_scale(cfg),
                         fh_mode=rs.fh, gmm_taps=rs.gmm_taps,
-                        gmm_carry=rs.gmm_carry, gmm_points=rs.gmm_points)
+                        gmm_carry=rs.gmm_carry, gmm_points=rs.gmm_points,
+                        sg_wang09_adds=tuple(rs.sg_wang09_adds))
     if any(x.needs_transport for x in methods):
         from sgpipe.render.transport_data import attach_transport
         attach_transport(renderer, cfg, out_dir, [v for v, _ in vis])

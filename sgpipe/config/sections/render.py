@@ -6,10 +6,11 @@ from dataclasses import dataclass
 from typing import Literal
 
 from sgpipe.config.schema import InputPath, doc
-from sgpipe.render.methods import METHOD_NAMES, METHODS, REFERENCE
+from sgpipe.render.methods import METHOD_NAMES, METHODS, REFERENCE, WANG09_SWITCHES
 
 #: A `render.methods` entry: an OpenCL method of the registry or the Monte Carlo `reference`.
 RenderMethod = Literal[METHOD_NAMES]
+Wang09Improvement = Literal[tuple(WANG09_SWITCHES)]
 
 
 @dataclass
@@ -163,7 +164,15 @@ class RenderSection:
                                  "baselines are unshadowed; false reproduces that).", True)
     fh: Literal["table", "sigmoid"] = doc(
         "SG × SSDF visibility integral f_h (Wang09 eq 30): `table` = the exact integral "
-        "tabulated (default), `sigmoid` = the paper's appendix fit (eq 47–49).", "table")
+        "tabulated (default), `sigmoid` = the appendix's form (eq 47–49) with sgpipe's refitted "
+        "coefficients (`sg_wang09` uses the printed ones).", "table")
+    sg_wang09_adds: list[Wang09Improvement] = doc(
+        "sg_wang09: sgpipe improvements to give back to Wang09 as published (all of them: "
+        "`sg`; one at a time: the ablation ladder, docs/WANG09.md): warp3 (3 sub-lobes, "
+        "anisotropic warp), spec_cosine (expected clamped cosine instead of C* ⊗), asg (ASG "
+        "NDF lobes), fh (render.fh instead of the printed sigmoid), sharp_lights (limit of the "
+        "products for lights sharper than λ 64), exact_brdf (NDF table at suns and sharp "
+        "lights).", default_factory=list)
     compare_to: str | None = doc("Method whose image is the ground truth for `sgpipe compare`"
                                  " of every other method (usually `reference`); null: none.",
                                  None)

@@ -15,10 +15,11 @@
  * The environment's point set (a sun) and lights sharper than SHARP_LIGHT are shaded with the
  * exact BRDF M_o(i) D(h) (the NDF table of materials.tabulate_ndf, as `fis` reads it) at their
  * direction, SSDF horizon, not through the lobes, whenever the material has that table.
- * WANG09_PUBLISHED (method `sg_wang09`, with SPEC_SUBLOBES 1, SHARP_LIGHT 1e30 and the
- * published f_h coefficients): the paper's own chain — C* ⊗ ρ*_s (eq 41 / 43) instead of
- * spec_cosine, SG lobes only (no ASG), every light and the point set through the products
- * (no exact-BRDF or sharp-light limits), f_h as eq 49 prints it (ssdf.h). */
+ * Method `sg_wang09` (the paper as published) compiles with switches that undo each of these
+ * (methods.WANG09_SWITCHES): SPEC_SUBLOBES 1; W09_CSTAR_SPEC: C* ⊗ ρ*_s (eq 41 / 43) instead of
+ * spec_cosine; W09_NO_ASG: SG lobes only; W09_FH_RAW and the printed f_h coefficients: f_h as
+ * eq 49 prints it (ssdf.h); SHARP_LIGHT 1e30: every light through the products; W09_NO_EXACT:
+ * the point set and sharp lights through the lobes, not the NDF table. */
 #include "sg.h"
 #include "asg.h"
 #include "ssdf.h"
@@ -99,6 +100,9 @@ __kernel void sg_shade(SG_SHADE_ARGS)
      * environment's point set then take the exact specular BRDF M_o(i) D(h) at their direction
      * instead of the lobes' value there (below). */
     int4 ndf = ndf_info[OBJ_MAT(ob)];
+#ifdef W09_NO_EXACT
+    ndf.w = 0;
+#endif
     for (int k = 0; k < n_lights; ++k) {
         SG Lw = light_sg(lights[2 * k], lights[2 * k + 1], x);
         SG L = sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu);
@@ -118,11 +122,7 @@ __kernel void sg_shade(SG_SHADE_ARGS)
     /* The point set (a sun) with the exact BRDF where the material has its NDF table: a delta
      * light needs ρ at one direction, and the lobes' Gaussian fall-off loses GGX's power-law
      * tail, which a sun 10⁴× the sky lifts above white far from the highlight. */
-#ifdef WANG09_PUBLISHED
-    int exact_pts = 0;
-#else
     int exact_pts = ndf.w && !(flags & FLAG_NO_ENV_SPECULAR);
-#endif
     for (int k = 0; exact_pts && k < n_pts; ++k) {
         float3 lg = to_local(pyr_pts[2 * k].xyz, T, B, N);
         float3 lp = quat_rotate(qi, lg);
@@ -132,7 +132,7 @@ __kernel void sg_shade(SG_SHADE_ARGS)
                * fh_hat(vis_theta(&vis, lg), SG_POINT_LAMBDA))
               * mf_M(m, tables, ks, op, lp) * pyr_pts[2 * k + 1].xyz;
     }
-#ifdef WANG09_PUBLISHED
+#ifdef W09_NO_ASG
     int na = 0;
 #else
     int na = asg_count(lobes, lobe0, nsg);
@@ -160,7 +160,7 @@ __kernel void sg_shade(SG_SHADE_ARGS)
             if (j < nl) w = sub[k];
             else if (!asg_sublobe(&plan, k, &w)) continue;
             w.mu *= mf_M(m, tables, ks, op, lift(w.p, 0.05f));
-#ifdef WANG09_PUBLISHED
+#ifdef W09_CSTAR_SPEC
             SG s = sg_product(w, cosq);              /* C* ⊗ ρ*_s, eq 41 / 43 */
 #else
             SG s = spec_cosine(w);

@@ -118,7 +118,7 @@ inline float fh_sigma(float theta_d, float k) {
 }
 inline float fh_hat(float theta_d, float lam) {
     float k = ((FH_C3 * lam + FH_C2) * lam + FH_C1) * lam + FH_C0;
-#ifdef WANG09_PUBLISHED
+#ifdef W09_FH_RAW
     return fmax(fh_sigma(theta_d, k), 0.0f);          /* eq 49 as printed: not renormalised */
 #else
     return fmax(fh_sigma(theta_d, k) / fh_sigma(1.5707963f, k), 0.0f);
@@ -132,7 +132,7 @@ inline float fh_hemi(float lam) { return lam < 1e-4f ? SG_TWO_PI : -SG_TWO_PI * 
 #ifndef FH_TABLE
 /* Wang09 eq 30: G · V ≈ μ f_h(θ_d, λ) = μ f̂_h(θ_d, λ) f_h(π/2, λ). */
 inline float3 sg_dot_visibility(SG g, float theta_d) {
-#ifdef WANG09_PUBLISHED
+#ifdef W09_FH_RAW
     return g.mu * (fh_hat(theta_d, g.lam) * fh_hemi(g.lam));
 #else
     return g.mu * fmin(fh_hat(theta_d, g.lam) * fh_hemi(g.lam), sg_integral_unit(g.lam));
