@@ -72,6 +72,7 @@ figures: setup
 	$(PY) -m sgpipe.experiments.fidelity --out $(OUT)/figures/fidelity --results docs/results/fidelity.md
 	$(PY) -m sgpipe.experiments.han07 --out $(OUT)/figures/han07
 	$(PY) -m sgpipe.experiments.green06 --out $(OUT)/figures/green06 --results docs/results/green06.md
+	$(PY) -m sgpipe.experiments.wang09 --out $(OUT)/figures/wang09 --results docs/results/wang09.md
 
 ## regenerate data_samples/ (deterministic)
 samples: $(STAMP)

@@ -157,6 +157,7 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     # Wang09 §7 as published: sg's kernel with every switch of WANG09_SWITCHES (docs/WANG09.md)
     Method("sg_wang09", "Wang09 as published (isotropic warp, C* ⊗ ρ*_s, published f_h)",
            "sg_shade", (PIXEL_PARAMS, SG_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",),
+           needs_ndf_table=True,    # read only with exact_brdf given back
            fixed_defines=tuple(d for ds in WANG09_SWITCHES.values() for d in ds)),
     Method("gmm", "Töral19 per-view vMF mixtures with MIP lookups", "gmm_shade",
            (PIXEL_PARAMS, MIP_PARAMS, GMM_POINT_PARAMS, "const int interp", TAIL_PARAMS),

@@ -43,6 +43,34 @@ def test_sg_product_inner_warp_match_core():
     np.testing.assert_allclose(warp[:, 4:7], wm, rtol=1e-6)
 
 
+def test_sg_product_and_inner_keep_their_precision_at_large_sharpness():
+    """λ up to 1e9 (a warped lobe at a grazing view) with axes 0–30 lobe widths apart: the
+    exponent d − λ1 − λ2 in float32 through −λ1λ2‖p1 − p2‖²/(λ1 + λ2 + d) stays within 1e-3 of
+    float64 (the plain difference errs by ±100 there and overflows e^{…})."""
+    n = 48
+    l1 = np.exp(RNG.uniform(np.log(1e4), np.log(1e9), n))
+    l2 = np.exp(RNG.uniform(np.log(1e2), np.log(1e6), n))
+    p1 = _unit(RNG.normal(size=(n, 3)) + [0, 0, 4])
+    off = _unit(np.cross(p1, RNG.normal(size=(n, 3))))
+    ang = RNG.uniform(0, 5, n) / np.sqrt(np.minimum(l1, l2))      # up to 5 widths apart
+    p2 = _unit(p1 + np.tan(ang)[:, None] * off)
+    m1, m2 = np.ones((n, 3)), np.ones((n, 3))
+    a = np.concatenate([p1, l1[:, None], m1, np.zeros((n, 1))], 1).astype(np.float32)
+    b = np.concatenate([p2, l2[:, None], m2, np.zeros((n, 1))], 1).astype(np.float32)
+    prod, inner, _ = run_kernel("t_sg", n, [a, b, f4(p1)],
+                                [((n, 8), np.float32), ((n, 4), np.float32),
+                                 ((n, 8), np.float32)])
+    # float64 truth from the float32 axes the kernel saw, as the directions they stand for
+    # (their float32 norms differ from 1 by ~6e-8: λ‖p‖ alone would move e^{…} by e^{±60})
+    q1, q2 = _unit(a[:, :3].astype(float)), _unit(b[:, :3].astype(float))
+    k1, k2 = a[:, 3].astype(float), b[:, 3].astype(float)
+    _, _, mu = csg.sg_product(q1, k1, m1, q2, k2, m2)
+    assert np.all(np.isfinite(prod[:, 4:7])) and np.all(np.isfinite(inner[:, :3]))
+    np.testing.assert_allclose(prod[:, 4], mu[:, 0], rtol=1e-3, atol=1e-30)
+    np.testing.assert_allclose(inner[:, 0], csg.sg_inner(q1, k1, m1, q2, k2, m2)[:, 0],
+                               rtol=1e-3, atol=1e-30)
+
+
 def test_fh_sigmoid_is_normalised_fit_and_close_to_exact():
     th = np.linspace(-np.pi / 2, np.pi / 2, 41)
     lam = np.array([1.0, 2.133, 5.0, 20.0, 100.0])

@@ -21,21 +21,27 @@ inline float sg_sinhc(float d) { return d < 1e-4f ? 2.0f - 2.0f * d : -expm1(-2.
 inline float sg_integral_unit(float lam) { return SG_TWO_PI * sg_sinhc(lam); }
 inline float3 sg_integral(SG g) { return g.mu * sg_integral_unit(g.lam); }
 
-/* Wang09 eq 5 / 45: G1·G2 = G(v; pm/‖pm‖, λm‖pm‖, μ1μ2 e^{λm(‖pm‖−1)}). */
+/* Wang09 eq 5 / 45: G1·G2 = G(v; pm/‖pm‖, λm‖pm‖, μ1μ2 e^{λm(‖pm‖−1)}). The exponent
+ * d − λ1 − λ2 (d = ‖λ1p1 + λ2p2‖) is taken as −λ1λ2‖p1 − p2‖² / (λ1 + λ2 + d), the same value
+ * without the cancellation that float32 suffers when the λ are large (at λ ~ 1e9, grazing
+ * warped lobes, the plain difference errs by ±100 and e^{…} overflows). */
 inline SG sg_product(SG a, SG b) {
     float3 pv = a.lam * a.p + b.lam * b.p;
     float d = length(pv);
+    float3 dp = a.p - b.p;
     SG r;
     r.p = d > 1e-12f ? pv / d : a.p;
     r.lam = d;
-    r.mu = a.mu * b.mu * exp(d - (a.lam + b.lam));
+    r.mu = a.mu * b.mu * exp(-a.lam * b.lam * dot(dp, dp) / (a.lam + b.lam + d + 1e-30f));
     return r;
 }
 
 /* Wang09 eq 4: ∫ G1 G2 = 2π μ1μ2 e^{d − λ1 − λ2} (1 − e^{−2d}) / d, d = ‖λ1p1 + λ2p2‖. */
 inline float3 sg_inner(SG a, SG b) {
     float d = length(a.lam * a.p + b.lam * b.p);
-    return a.mu * b.mu * (SG_TWO_PI * exp(d - (a.lam + b.lam)) * sg_sinhc(d));
+    float3 dp = a.p - b.p;          /* d − λ1 − λ2 without cancellation, as sg_product */
+    return a.mu * b.mu * (SG_TWO_PI * exp(-a.lam * b.lam * dot(dp, dp)
+                                          / (a.lam + b.lam + d + 1e-30f)) * sg_sinhc(d));
 }
 
 /* Wang09 eq 3 and inverse: f_a(λ) = −2π ln ε / λ. */
