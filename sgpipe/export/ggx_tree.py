@@ -8,8 +8,9 @@ source texels still too large are sub-sampled.
 L̄ is the node's solid-angle mean radiance; ⟨K⟩_L the kernel's mean over the node's light and
 ⟨K⟩_Ω over its area, each to second order in t = r·ω: K(t̄) + ½ K''(t̄) Var t, from the node's
 first and second moments of ω (so a bright lamp inside a coarse node sits where its light is,
-and the power-law tail's curvature is carried; a constant map gives a constant level). The error is set by `accuracy` (node size / max(distance, α)); docs/EXPORT.md gives
-the measured errors."""
+and the power-law tail's curvature is carried; a constant map gives a constant level). The
+error is set by `accuracy` (node size / max(distance, α)); docs/EXPORT.md gives the measured
+errors."""
 
 from __future__ import annotations
 
@@ -18,7 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit, prange
-
 
 ACCURACY = 0.2          # node size / max(angle to r, α) below which a node is one sample
 HORIZON_ALPHA = 0.1     # lobes this broad also resolve the K = 0 horizon (its kink) …
