@@ -16,16 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
+from sgpipe.export.ggx_tree import ggx_kernel
+
 SUB = 4                     # sub-samples per texel width of a tent near the lobe's peak
-
-
-@njit(cache=True, inline="always")
-def _kernel(c, a2):
-    if c <= 0.0:
-        return 0.0
-    ch2 = 0.5 * (1.0 + c)
-    den = ch2 * (a2 - 1.0) + 1.0
-    return a2 / (math.pi * den * den) * c
 
 
 @njit(cache=True, inline="always")
@@ -42,6 +35,12 @@ def _bilinear(img, u, v, out):
         a = img[i0, j0m, ch] * (1.0 - fx) + img[i0, j1m, ch] * fx
         b = img[i1, j0m, ch] * (1.0 - fx) + img[i1, j1m, ch] * fx
         out[ch] = a * (1.0 - fy) + b * fy
+
+
+@njit(parallel=True, cache=True)
+def _bilinear_at(img, u, v, out):
+    for k in prange(len(u)):
+        _bilinear(img, u[k], v[k], out[k])
 
 
 @njit(parallel=True, cache=True)
@@ -83,9 +82,9 @@ def _prefilter(img, dirs, alpha, near_cos, SUB, out):
                             x = (b + 0.5) / SUB - 1.0
                             ph = 2.0 * math.pi * (j + 0.5 + x) / w
                             cs = rx * s2 * math.sin(ph) + ry * c2 - rz * s2 * math.cos(ph)
-                            kv += (1.0 - abs(x)) * (1.0 - abs(y)) * s2 * cell * _kernel(cs, a2)
+                            kv += (1.0 - abs(x)) * (1.0 - abs(y)) * s2 * cell * ggx_kernel(cs, a2)
                 else:
-                    kv = _kernel(c, a2) * omega[i]
+                    kv = ggx_kernel(c, a2) * omega[i]
                 if kv > 0.0:
                     acc0 += kv * img[i, j, 0]
                     acc1 += kv * img[i, j, 1]
@@ -107,8 +106,7 @@ def prefilter_latlong(img: np.ndarray, dirs: np.ndarray, alpha: float,
     if alpha == 0.0:
         from sgpipe.core.maps import dir_to_latlong
         u, v = dir_to_latlong(d)
-        for k in range(len(d)):
-            _bilinear(img, float(u[k]), float(v[k]), out[k])
+        _bilinear_at(img, np.ascontiguousarray(u), np.ascontiguousarray(v), out)
         return out
     texel = math.pi / img.shape[0]
     near = max(min(12.0 * alpha, 20.0 * texel), 3.0 * texel)

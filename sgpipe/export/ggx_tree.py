@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
+from sgpipe.envmap._cube_jit import FACE_UVA, face_dir
+
 ACCURACY = 0.2          # node size / max(angle to r, α) below which a node is one sample
 HORIZON_ALPHA = 0.1     # lobes this broad also resolve the K = 0 horizon (its kink) …
 HORIZON_SIZE = 0.04     # … down to nodes of this angular size (radians)
@@ -73,12 +75,9 @@ def _leaves(faces, rad, omega, mean_l, mean_a, cov_l, cov_a):
     for f in prange(6):
         for i in range(s):
             b0, b1 = 2.0 * i / s - 1.0, 2.0 * (i + 1) / s - 1.0
-            b = 0.5 * (b0 + b1)
             for j in range(s):
                 a0, a1 = 2.0 * j / s - 1.0, 2.0 * (j + 1) / s - 1.0
-                x, y, z = _face_dir(f, 0.5 * (a0 + a1), b)
-                inv = 1.0 / math.sqrt(x * x + y * y + z * z)
-                x, y, z = x * inv, y * inv, z * inv
+                x, y, z = face_dir(FACE_UVA, f, (j + 0.5) / s, (i + 0.5) / s)
                 om = _corner(a1, b1) - _corner(a0, b1) - _corner(a1, b0) + _corner(a0, b0)
                 k = (f * s + i) * s + j
                 omega[k] = om
@@ -95,8 +94,9 @@ def _leaves(faces, rad, omega, mean_l, mean_a, cov_l, cov_a):
 
 
 @njit(cache=True, inline="always")
-def _merge(ks, w, mean, cov, out_k):
-    """Weighted mean and covariance of four children (parallel-axis rule) into node out_k."""
+def _merge(ks, w, mean, cov, out_k, c):
+    """Weighted mean and covariance of four children (parallel-axis rule) into node out_k
+    (c: a 6-float scratch array)."""
     tot = w[0] + w[1] + w[2] + w[3]
     m0 = m1 = m2 = 0.0
     for n in range(4):
@@ -104,7 +104,7 @@ def _merge(ks, w, mean, cov, out_k):
         m1 += w[n] * mean[ks[n], 1]
         m2 += w[n] * mean[ks[n], 2]
     m0, m1, m2 = m0 / tot, m1 / tot, m2 / tot
-    c = np.zeros(6)
+    c[:] = 0.0
     for n in range(4):
         k = ks[n]
         d0, d1, d2 = mean[k, 0] - m0, mean[k, 1] - m1, mean[k, 2] - m2
@@ -128,6 +128,7 @@ def _parents(nc, child_off, parent_off, rad, omega, mean_l, mean_a, cov_l, cov_a
         ks = np.empty(4, np.int64)
         wa = np.empty(4)
         wl = np.empty(4)
+        scratch = np.empty(6)
         for i in range(n):
             for j in range(n):
                 p = parent_off + (f * n + i) * n + j
@@ -144,8 +145,8 @@ def _parents(nc, child_off, parent_off, rad, omega, mean_l, mean_a, cov_l, cov_a
                 for c in range(3):
                     rad[p, c] = (wa[0] * rad[ks[0], c] + wa[1] * rad[ks[1], c]
                                  + wa[2] * rad[ks[2], c] + wa[3] * rad[ks[3], c]) / om
-                _merge(ks, wa, mean_a, cov_a, p)
-                _merge(ks, wl, mean_l, cov_l, p)
+                _merge(ks, wa, mean_a, cov_a, p, scratch)
+                _merge(ks, wl, mean_l, cov_l, p, scratch)
 
 
 @njit(cache=True, inline="always")
@@ -157,7 +158,7 @@ def _lobe_mean(rx, ry, rz, m, c, node, a2):
     if t <= 0.0:
         return 0.0
     if var <= 0.0 or t * t < 4.0 * var:          # the kink at t = 0 within reach: plain
-        return _lobe(t, a2)
+        return ggx_kernel(t, a2)
     beta = 0.5 * (a2 - 1.0)
     q = 1.0 + 0.5 * (1.0 + t) * (a2 - 1.0)
     amp = a2 / math.pi
@@ -168,28 +169,13 @@ def _lobe_mean(rx, ry, rz, m, c, node, a2):
 
 
 @njit(cache=True, inline="always")
-def _lobe(c, a2):
+def ggx_kernel(c, a2):
+    """K_α(θ) = D_α(cos(θ/2)) max(cos θ, 0) at c = cos θ, a2 = α² (ggx_mapping.ggx_lobe)."""
     if c <= 0.0:
         return 0.0
     ch2 = 0.5 * (1.0 + c)
     den = ch2 * (a2 - 1.0) + 1.0
     return a2 / (math.pi * den * den) * c
-
-
-@njit(cache=True, inline="always")
-def _face_dir(f, a, b):
-    """OpenGL face f at a, b ∈ [−1, 1] (sgpipe.core.maps.cubemap_dir), not normalised."""
-    if f == 0:
-        return 1.0, -b, -a
-    if f == 1:
-        return -1.0, -b, a
-    if f == 2:
-        return a, 1.0, b
-    if f == 3:
-        return a, -1.0, -b
-    if f == 4:
-        return a, -b, 1.0
-    return -a, -b, -1.0
 
 
 @njit(parallel=True, cache=True)
@@ -242,11 +228,11 @@ def _prefilter(offset, radiance, omega, mean_light, mean_area, cov_light, cov_ar
                     b = 2.0 * (i + (p + 0.5) / ss) / n - 1.0
                     for q in range(ss):
                         a = 2.0 * (j + (q + 0.5) / ss) / n - 1.0
-                        x, y, z = _face_dir(f, a, b)
-                        inv = 1.0 / math.sqrt(x * x + y * y + z * z)
-                        jac = inv * inv * inv            # sub-texel solid angle ∝ |d|⁻³
+                        x, y, z = face_dir(FACE_UVA, f, 0.5 * (a + 1.0), 0.5 * (b + 1.0))
+                        # sub-texel solid angle ∝ |d|⁻³, |d|² = 1 + a² + b² on the face plane
+                        jac = (1.0 + a * a + b * b) ** -1.5
                         wsum += jac
-                        ksum += jac * _lobe((rx * x + ry * y + rz * z) * inv, a2)
+                        ksum += jac * ggx_kernel(rx * x + ry * y + rz * z, a2)
                 w = om * ksum / wsum
                 n0 += w * radiance[node, 0]
                 n1 += w * radiance[node, 1]
