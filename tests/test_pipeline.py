@@ -9,7 +9,7 @@ import pytest
 
 from tiny_scene import tiny_config  # tests/ is on sys.path
 
-CONFIG = tiny_config("[sg, gmm, fis, reference]", workers=2)
+CONFIG = tiny_config("[sg, gmm, gmm_toral19, fis, reference]", workers=2)
 
 
 def sgpipe(*args):

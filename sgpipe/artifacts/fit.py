@@ -22,6 +22,8 @@ NDF_SG = "ndf_sg.npz"
 NDF_ASG = "ndf_asg.npz"                 # only with fit.ndf_sg.anisotropic: asg, anisotropic NDFs
 VIEW_GMM = "view_gmm.npz"
 VIEW_GMM_TEXTURE = "view_gmm.exr"
+#: Töral19's mixtures as published (`gmm_toral19`): 8 lobes, independent views, specular part
+VIEW_GMM_TORAL19 = "view_gmm_toral19.npz"
 TABULATED = "tabulated.npz"
 REPORT = "report.json"
 ERROR_PLOT = "error_vs_lobes.png"
@@ -89,6 +91,13 @@ def write_ndf_asg(sink, material: str, arrays: dict) -> None:
 def write_tabulated(sink, material: str, arrays: dict) -> None:
     """`tabulated.npz` (MERL materials): NDF and shadowing tables, shadowing PCA, η."""
     sink.write_npz(material_file(material, TABULATED), cast(arrays, TABULATED_ARRAYS, TABULATED))
+
+
+def write_view_gmm_toral19(sink, material: str, arrays: dict) -> None:
+    """`view_gmm_toral19.npz`: the arrays of `view_gmm.npz` for Töral19's published fit."""
+    a = {k: np.asarray(v) for k, v in arrays.items()}
+    sink.write_npz(material_file(material, VIEW_GMM_TORAL19),
+                   cast(a, VIEW_GMM_ARRAYS, VIEW_GMM_TORAL19))
 
 
 def write_view_gmm(sink, material: str, arrays: dict, *, view_theta_max: float) -> None:
@@ -201,10 +210,10 @@ def read_ndf_asg(folder: str | Path, material: str) -> NdfAsgLobes | None:
                        amplitude=shaped(z["amplitude"], (n,), "amplitude", path, key))
 
 
-def read_view_gmm(folder: str | Path, material: str) -> dict:
-    """`view_gmm.npz` arrays, their shapes checked: alpha (J, K, 3), kappa / mu_theta / mu_phi
-    (J, K) with J = Nθ·Nφ."""
-    path = Path(folder) / VIEW_GMM
+def read_view_gmm(folder: str | Path, material: str, *, name: str = VIEW_GMM) -> dict:
+    """`view_gmm.npz` (or `name`: VIEW_GMM_TORAL19) arrays, their shapes checked: alpha
+    (J, K, 3), kappa / mu_theta / mu_phi (J, K) with J = Nθ·Nφ."""
+    path = Path(folder) / name
     key = _key(material)
     z = read_npz(path, key=key, required=("view_theta", "view_phi", "alpha", "kappa",
                                           "mu_theta", "mu_phi", "includes_diffuse",

@@ -183,6 +183,58 @@ class GammaChain:
 
 
 @dataclass
+class DpChain:
+    """Dual-paraboloid MIP levels (Töral19 eq 11; "dp2h": (n, 2n, 3) each) in one float4
+    buffer, the kernels' dpmap.h layout."""
+
+    texels: np.ndarray   # (T, 4) float32
+    offsets: np.ndarray  # (L,) int32
+    res: np.ndarray      # (L,) int32 resolution n of each paraboloid
+    b: float             # paraboloid scale (envmap.dp_scale)
+
+    @classmethod
+    def from_levels(cls, levels: list[np.ndarray], b: float) -> "DpChain":
+        res, offs, parts, off = [], [], [], 0
+        for img in levels:
+            img = np.asarray(img, np.float32)
+            n = img.shape[0]
+            if img.ndim != 3 or img.shape[1] != 2 * n:
+                raise ValueError(f"not a dual-paraboloid level: shape {img.shape}")
+            rgba = np.zeros((2 * n * n, 4), np.float32)
+            rgba[:, :3] = img[..., :3].reshape(-1, 3)
+            parts.append(rgba)
+            offs.append(off)
+            res.append(n)
+            off += len(rgba)
+        return cls(np.concatenate(parts), np.asarray(offs, np.int32), np.asarray(res, np.int32),
+                   float(b))
+
+    @classmethod
+    def from_cube(cls, mip: "CubeChain", b: float = 1.2, supersample: int = 2) -> "DpChain":
+        """The envmap stage's chain from a cube chain's finest level, for environments built
+        without the stage: paraboloids of the cube's resolution, each texel the solid-angle
+        weighted mean (dω ∝ (1 + ρ²)⁻²) of ss × ss bilinear cube samples
+        (envmap.maps.cubemap_to_dual_paraboloid), then the solid-angle weighted box chain
+        (envmap.mip.dp_mip_chain)."""
+        from sgpipe.core.maps import (dual_paraboloid_dir, dual_paraboloid_solid_angles,
+                                      solid_angle_box_chain)
+        n = int(mip.res[0])
+        level0 = mip.level(0)
+        c = np.arange(n)
+        acc, wsum = 0.0, 0.0
+        for oa in (np.arange(supersample) + 0.5) / supersample:
+            for ob in (np.arange(supersample) + 0.5) / supersample:
+                s = (c[None, None, :] + ob) / n
+                t = (c[None, :, None] + oa) / n
+                d = dual_paraboloid_dir(np.arange(2)[:, None, None], s, t, b)
+                w = 1.0 / (1.0 + (b * (2 * s - 1)) ** 2 + (b * (1 - 2 * t)) ** 2) ** 2
+                acc = acc + bilinear_b1(level0, n, d) * w[..., None]
+                wsum = wsum + w
+        chain = solid_angle_box_chain(acc / wsum[..., None], dual_paraboloid_solid_angles(n, b))
+        return cls.from_levels([np.concatenate([lv[0], lv[1]], axis=1) for lv in chain], b)
+
+
+@dataclass
 class EnvData:
     """Everything the kernels need about distant lighting."""
 
@@ -204,6 +256,9 @@ class EnvData:
     # world ← map rotation (3, 3) of the whole environment (render.environment_rotation);
     # None: the identity. The arrays above stay in the map's frame.
     rotation: np.ndarray | None = None
+    # the dual-paraboloid MIP chain (envmap/mip/dp_MM.exr; `gmm_toral19`); None: derived from
+    # `mip` on first use (dp_chain)
+    dp: DpChain | None = None
 
     def __post_init__(self):
         if self.gamma is None:
@@ -214,6 +269,12 @@ class EnvData:
     @property
     def mip_N(self) -> int:
         return int(self.mip.res[0])
+
+    def dp_chain(self) -> DpChain:
+        """The dual-paraboloid MIP chain (Töral19 eq 11): the envmap stage's, else derived."""
+        if self.dp is None:
+            self.dp = DpChain.from_cube(self.mip)
+        return self.dp
 
     def rotated(self, rotation) -> "EnvData":
         """This environment turned by `rotation` (3, 3 world ← map; None: unchanged) after its
@@ -307,16 +368,18 @@ class EnvData:
                    raw=CubeChain.constant(rgb, face_res, 1))
 
     @classmethod
-    def load(cls, folder: str | Path) -> "EnvData":
+    def load(cls, folder: str | Path, *, dual_paraboloid: bool = False) -> "EnvData":
         """Read `<out>/envmap/` (pyramid.npz + pyramid/{level,coef,slope}_LL.exr, mip.npz +
-        mip/cube_MM.exr, light_sg.npz; readers of sgpipe.artifacts.envmap). Without coef/slope
-        files the accurate chain is derived from the plain levels (GammaChain.from_samples)."""
+        mip/cube_MM.exr, light_sg.npz, and with `dual_paraboloid` mip/dp_MM.exr; readers of
+        sgpipe.artifacts.envmap). Without coef/slope files the accurate chain is derived from
+        the plain levels (GammaChain.from_samples)."""
         folder = Path(folder)
         if not folder.is_dir():
             raise BadInput("environment artifacts not found (run `sgpipe precompute` first)",
                            file=folder, key=contract.KEY)
         pyr = contract.read_pyramid(folder)
         mip = contract.read_mip(folder, "cube")
+        dp = contract.read_mip(folder, "dp") if dual_paraboloid else None
         lsg = contract.read_light_sg(folder)
         f32 = np.float32
         return cls(pyramid=CubeChain.from_levels(pyr.samples), lambdas=pyr.lambdas.astype(f32),
@@ -328,4 +391,5 @@ class EnvData:
                                                                                 pyr.slopes),
                    raw=None if pyr.raw is None else CubeChain.from_levels([pyr.raw]),
                    point_dirs=pyr.point_dirs.astype(f32),
-                   point_energy=pyr.point_energy.astype(f32))
+                   point_energy=pyr.point_energy.astype(f32),
+                   dp=None if dp is None else DpChain.from_levels(dp.levels, dp.b))

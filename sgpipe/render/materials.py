@@ -56,6 +56,7 @@ class Material:
     asg_mu: np.ndarray = field(default_factory=lambda: np.zeros(0))
     asg_amp: np.ndarray = field(default_factory=lambda: np.zeros(0))
     gmm: dict | None = None          # view_gmm.npz arrays
+    gmm_toral19: dict | None = None  # view_gmm_toral19.npz arrays (Töral19's published fit)
     ndf_table: np.ndarray | None = None  # (nt, np) exact D on the (t, φ) grid (fis)
     kd_texture: int = -1
     ks_texture: int = -1
@@ -65,9 +66,10 @@ class Material:
         return cls(name, kd=np.broadcast_to(np.asarray(kd, float), (3,)).copy())
 
     @classmethod
-    def load(cls, folder: str | Path, name: str, *, need_gmm: bool = False) -> "Material":
-        """Read `<out>/fit/<name>/` (microfacet.npz, ndf_sg.npz, view_gmm.npz if needed) with
-        the readers of sgpipe.artifacts.fit."""
+    def load(cls, folder: str | Path, name: str, *, need_gmm: bool = False,
+             need_gmm_toral19: bool = False) -> "Material":
+        """Read `<out>/fit/<name>/` (microfacet.npz, ndf_sg.npz, view_gmm.npz and
+        view_gmm_toral19.npz if needed) with the readers of sgpipe.artifacts.fit."""
         folder = Path(folder)
         if not folder.is_dir():
             raise BadInput(f"fitted material {name!r} not found (run `sgpipe fit` first)",
@@ -80,6 +82,12 @@ class Material:
                    alpha_u=mf.alpha_u, alpha_v=mf.alpha_v, shadow_table=mf.shadow_table,
                    lobe_axis=ndf.axis, lobe_lambda=ndf.sharpness, lobe_mu=ndf.amplitude,
                    gmm=contract.read_view_gmm(folder, name) if need_gmm else None)
+        if need_gmm_toral19:
+            if not (folder / contract.VIEW_GMM_TORAL19).is_file():
+                raise BadInput("Töral19's published mixtures are missing (run `sgpipe fit` with "
+                               "gmm_toral19 in render.methods)",
+                               file=folder / contract.VIEW_GMM_TORAL19, key="render.methods")
+            m.gmm_toral19 = contract.read_view_gmm(folder, name, name=contract.VIEW_GMM_TORAL19)
         if asg is not None:
             m.set_asg(asg.z, asg.x, asg.sharpness_x, asg.sharpness_y, asg.amplitude)
         return m

@@ -37,10 +37,14 @@ MIP_PARAMS = """
     const float coverage,
     __global const float4 *lights, const int n_lights"""
 
-#: ... what `gmm` takes next: the box MIP chain it reads (the map minus the point set when
-#: render.gmm_points, else `mip` itself; offsets and resolutions as `mip`) and the point set.
-GMM_POINT_PARAMS = """
-    __global const float4 *gmm_mip, __global const float4 *pyr_pts, const int n_gmm_pts"""
+#: ... what `gmm` takes next: the MIP chain its lobes read (levels, offsets, resolutions,
+#: count, dual-paraboloid scale b): the box cube chain of the map minus the point set when
+#: render.gmm_points, else `mip` itself; for `gmm_toral19` as published the dual-paraboloid
+#: chain (Töral19 eq 11); then the point set summed exactly.
+GMM_CHAIN_PARAMS = """
+    __global const float4 *gmm_mip, __global const int *gmm_mip_off,
+    __global const int *gmm_mip_res, const int gmm_mip_n, const float gmm_dp_b,
+    __global const float4 *pyr_pts, const int n_gmm_pts"""
 
 #: ... and what every method takes last.
 TAIL_PARAMS = """
@@ -147,6 +151,28 @@ WANG09_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
     "exact_brdf": (("W09_NO_EXACT", 1),),
 }
 
+#: What makes `gmm_toral19` Töral19 §IV–V as published, one entry per sgpipe improvement that
+#: `gmm` has over the paper: its compile-time defines, and for `points` and `fit` what the
+#: renderer binds (Renderer.gmm_bindings). `render.gmm_toral19_adds` names improvements to give
+#: back — all of them make it `gmm` (a test checks); one at a time, the ablation ladder of
+#: docs/results/toral19.md.
+TORAL19_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
+    # eq 9–11: the dual-paraboloid MIP chain and its distortion 4b²(|i_z| + 1)²
+    # (gmm: the cube's box chain with the exact texel solid angle)
+    "cube_chain": (("GMM_DP", 1),),
+    # eq 10: one trilinear lookup at the lobe's level (gmm: render.gmm_taps taps over the lobe)
+    "taps": (("GMM_TAPS", 1),),
+    # the whole map through the chain (gmm: render.gmm_points, the point set summed exactly
+    # beside the chain of the rest)
+    "points": (),
+    # §V: the nearest view's lobes as fitted (gmm: render.gmm_carry)
+    "carry": (("GMM_ROTATE", 0),),
+    # §V: 8 lobes per view for every BRDF, views fitted independently, the nearest view
+    # (gmm: fit.view_gmm as configured: 24 lobes for anisotropic BRDFs, coherent fits
+    # interpolated when fit.view_gmm.coherent)
+    "fit": (),
+}
+
 #: The Han07 normal-map methods (stable names: the figures build on them).
 NORMALMAP_METHODS = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh")
 
@@ -160,9 +186,16 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            needs_ndf_table=True,    # read only with exact_brdf given back
            fixed_defines=tuple(d for ds in WANG09_SWITCHES.values() for d in ds)),
     Method("gmm", "Töral19 per-view vMF mixtures with MIP lookups", "gmm_shade",
-           (PIXEL_PARAMS, MIP_PARAMS, GMM_POINT_PARAMS, "const int interp", TAIL_PARAMS),
+           (PIXEL_PARAMS, MIP_PARAMS, GMM_CHAIN_PARAMS, "const int interp", TAIL_PARAMS),
            defines=("MAX_GMM_LOBES", "GMM_TAPS", "GMM_ROTATE"), baseline_shadows=True,
            needs_view_gmm=True),
+    # Töral19 as published: gmm's kernel with every switch of TORAL19_SWITCHES (docs/TORAL19.md)
+    Method("gmm_toral19", "Töral19 as published (8 lobes, nearest view, one dual-paraboloid "
+           "MIP lookup per lobe)", "gmm_shade",
+           (PIXEL_PARAMS, MIP_PARAMS, GMM_CHAIN_PARAMS, "const int interp", TAIL_PARAMS),
+           defines=("MAX_GMM_LOBES", "GMM_TAPS", "GMM_ROTATE"), baseline_shadows=True,
+           needs_view_gmm=True,
+           fixed_defines=tuple(d for ds in TORAL19_SWITCHES.values() for d in ds)),
     Method("fis", "Colbert–Křivánek filtered importance sampling", "fis_shade",
            (PIXEL_PARAMS, MIP_PARAMS, "const int nsamp, const uint seed", TAIL_PARAMS),
            defines=("MAX_NDF_LOBES",), baseline_shadows=True, needs_ndf_table=True),

@@ -18,7 +18,7 @@ from sgpipe.render import opencl
 from sgpipe.render.envdata import EnvData
 from sgpipe.render.headers import fh_coefficients, kernel_headers
 from sgpipe.render.materials import MaterialTable
-from sgpipe.render.methods import METHODS, WANG09_SWITCHES
+from sgpipe.render.methods import METHODS, TORAL19_SWITCHES, WANG09_SWITCHES
 from sgpipe.render.records import ObjectFloatSlot, ObjectSlot
 
 
@@ -123,13 +123,18 @@ class Renderer:
                  textures: Textures | None = None, lights: list[Light] = (),
                  env_scale: float = 1.0, nv: int | None = None, fh_mode: str = "table",
                  gmm_taps: int = 16, gmm_carry: str = "warp", gmm_points: bool = True,
-                 sg_wang09_adds: tuple[str, ...] = ()):
+                 sg_wang09_adds: tuple[str, ...] = (), gmm_toral19_adds: tuple[str, ...] = (),
+                 materials_toral19: MaterialTable | None = None):
         self.ctx, self.queue = opencl.get_context()
         self.env, self.materials, self.objects = env, materials, list(objects)
         self.env_scale = float(env_scale)
         self.headers = kernel_headers(fh_mode)
         self.fh_mode = fh_mode
         self.sg_wang09_adds = tuple(sg_wang09_adds)
+        self.gmm_toral19_adds = tuple(gmm_toral19_adds)
+        # `gmm_toral19`'s material table (its published per-view fit); None: `materials`'
+        self.materials_toral19 = materials_toral19
+        self._bindings: dict[str, dict] = {}
         self.gmm_taps = int(gmm_taps)
         self.gmm_carry = {"none": 0, "rotate": 1, "warp": 2}[gmm_carry]   # GMM_ROTATE
         self.gmm_points = bool(gmm_points)   # gmm: residual MIP chain + exact point set
@@ -219,13 +224,14 @@ class Renderer:
         d = {"NV": self.nv, "FH_A": a, "FH_C3": c3, "FH_C2": c2, "FH_C1": c1, "FH_C0": c0}
         if self.fh_mode == "table":
             d["FH_TABLE"] = 1
-        per_scene = {"MAX_NDF_LOBES": max(1, self.materials.max_lobes),
-                     "MAX_GMM_LOBES": max(1, self.materials.max_gmm_lobes),
+        mats = self.method_materials(method)
+        per_scene = {"MAX_NDF_LOBES": max(1, mats.max_lobes),
+                     "MAX_GMM_LOBES": max(1, mats.max_gmm_lobes),
                      "GMM_TAPS": max(1, self.gmm_taps), "GMM_ROTATE": self.gmm_carry}
         d.update({k: per_scene[k] for k in METHODS[method].defines})
         d.update(self.env.rotation_defines())     # render.environment_rotation (cubemap.h)
-        given_back = {k for name in (self.sg_wang09_adds if method == "sg_wang09" else ())
-                      for k, _ in WANG09_SWITCHES[name]}
+        given_back = {k for table, adds in self._published_adds(method)
+                      for name in adds for k, _ in table[name]}
         for k, v in METHODS[method].fixed_defines:
             if k in given_back:
                 continue
@@ -247,23 +253,56 @@ class Renderer:
                            env_sg=dev(self.env.light_records().reshape(-1, 4)))
         self._kernels.clear()
 
-    def _gmm_mip(self) -> None:
-        """gmm's MIP chain without the point set + the points' exact vMF sum (else Töral19's
-        `mip`), built on gmm's first use: the subtraction costs ~0.4 s at N = 128."""
-        if "gmm_mip" in self.static:
-            return
-        e = self.env
-        res_mip = e.residual_mip() if self.gmm_points else e.mip
-        self.static.update(
-            gmm_mip=(self.static["mip"] if res_mip is e.mip
-                     else opencl.to_device(self.ctx, res_mip.texels)),
-            n_gmm_pts=len(e.point_dirs) if res_mip is not e.mip else 0)
+    def _published_adds(self, method: str):
+        """[(switch table, improvements given back)] of a published variant; [] otherwise."""
+        if method == "sg_wang09":
+            return [(WANG09_SWITCHES, self.sg_wang09_adds)]
+        if method == "gmm_toral19":
+            return [(TORAL19_SWITCHES, self.gmm_toral19_adds)]
+        return []
+
+    def method_materials(self, method: str) -> MaterialTable:
+        """The material table `method` reads: gmm_toral19's published fit unless `fit` is
+        given back."""
+        if (method == "gmm_toral19" and "fit" not in self.gmm_toral19_adds
+                and self.materials_toral19 is not None):
+            return self.materials_toral19
+        return self.materials
+
+    def gmm_bindings(self, method: str) -> dict:
+        """The values `method` binds beyond `static` (built on first use): for gmm and
+        gmm_toral19 the MIP chain the lobes read — the cube chain without the point set beside
+        the points' exact vMF sum (render.gmm_points; the subtraction costs ~0.4 s at N = 128),
+        else the whole cube chain, or Töral19's dual-paraboloid chain — and gmm_toral19's
+        material table."""
+        if method in self._bindings:
+            return self._bindings[method]
+        e, out = self.env, {}
+        if any(name == "gmm_mip" for _, name in METHODS[method].parameters):
+            adds = self.gmm_toral19_adds if method == "gmm_toral19" else tuple(TORAL19_SWITCHES)
+            dev = lambda a, dt=np.float32: opencl.to_device(self.ctx, a, dtype=dt)  # noqa: E731
+            if "cube_chain" not in adds:
+                dp = e.dp_chain()
+                out.update(gmm_mip=dev(dp.texels), gmm_mip_off=dev(dp.offsets, np.int32),
+                           gmm_mip_res=dev(dp.res, np.int32), gmm_mip_n=len(dp.res),
+                           gmm_dp_b=dp.b, n_gmm_pts=0)
+            else:
+                res_mip = e.residual_mip() if self.gmm_points and "points" in adds else e.mip
+                out.update(gmm_mip=(self.static["mip"] if res_mip is e.mip
+                                    else dev(res_mip.texels)),
+                           gmm_mip_off=self.static["mip_off"], gmm_mip_res=self.static["mip_res"],
+                           gmm_mip_n=self.static["mip_n"], gmm_dp_b=1.0,
+                           n_gmm_pts=len(e.point_dirs) if res_mip is not e.mip else 0)
+        mats = self.method_materials(method)
+        if mats is not self.materials:
+            dev = lambda a, dt=np.float32: opencl.to_device(self.ctx, a, dtype=dt)  # noqa: E731
+            out.update(mats=dev(mats.records), gmm=dev(mats.gmm))
+        self._bindings[method] = out
+        return out
 
     def kernel(self, method: str):
         """The method's kernel (program built once per context and defines; kernel reused)."""
         if method not in self._kernels:
-            if any(name == "gmm_mip" for _, name in METHODS[method].parameters):
-                self._gmm_mip()
             name = METHODS[method].kernel
             t0 = time.perf_counter()
             prg = opencl.build_program(self.ctx, name, self.defines(method), headers=self.headers)
@@ -292,7 +331,7 @@ class Renderer:
         if n == 0:
             return np.zeros((0, 3), np.float32)
         kern = self.kernel(method)
-        values = {**self.static, **g, "flags": flags, "coverage": mip_coverage,
+        values = {**self.static, **self.gmm_bindings(method), **g, "flags": flags, "coverage": mip_coverage,
                   "interp": 1 if gmm_interpolate else 0, "nsamp": fis_samples, "seed": seed}
         args = [_SCALAR.get(ctype, _as_is)(values[name])
                 for ctype, name in METHODS[method].parameters]

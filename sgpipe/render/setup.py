@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -62,7 +62,8 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
     rs = cfg.render
     if cfg.scene is None or not cfg.scene.objects:
         raise BadInput("the scene has no objects to render", key="scene.objects")
-    env = EnvData.constant(0.0) if cfg.envmap is None else EnvData.load(out_dir / "envmap")
+    env = (EnvData.constant(0.0) if cfg.envmap is None else EnvData.load(
+        out_dir / "envmap", dual_paraboloid=any(x.name == "gmm_toral19" for x in methods)))
     vis_dir = out_dir / "visibility" if cfg.visibility is not None else None
     if vis_dir is not None and not vis_dir.is_dir():
         raise BadInput("visibility artifacts not found (run `sgpipe precompute` first)",
@@ -78,11 +79,15 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
             raise BadInput(f"material {name!r} is not defined in fit.materials",
                            key="render.material_textures")
     names, mats = [], []
+    # gmm_toral19 reads Töral19's published per-view fit unless `fit` is given back
+    published_gmm = (any(x.name == "gmm_toral19" for x in methods)
+                     and "fit" not in rs.gmm_toral19_adds)
     for o, spec in zip(cfg.scene.objects, specs):
         if o.material in names:
             continue
         m = Material.load(out_dir / "fit" / o.material, o.material,
-                          need_gmm=any(x.needs_view_gmm for x in methods))
+                          need_gmm=any(x.needs_view_gmm for x in methods),
+                          need_gmm_toral19=published_gmm)
         if any(x.needs_ndf_table for x in methods):
             m.tabulate_ndf(material_brdf(spec))
         t = tex_by_mat.get(o.material)
@@ -103,7 +108,11 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
                         textures=textures, lights=lights_of(rs), env_scale=environment_scale(cfg),
                         fh_mode=rs.fh, gmm_taps=rs.gmm_taps,
                         gmm_carry=rs.gmm_carry, gmm_points=rs.gmm_points,
-                        sg_wang09_adds=tuple(rs.sg_wang09_adds))
+                        sg_wang09_adds=tuple(rs.sg_wang09_adds),
+                        gmm_toral19_adds=tuple(rs.gmm_toral19_adds),
+                        materials_toral19=pack_materials(
+                            [replace(m, gmm=m.gmm_toral19) for m in mats])
+                        if published_gmm else None)
     if any(x.needs_transport for x in methods):
         from sgpipe.render.transport_data import attach_transport
         attach_transport(renderer, cfg, out_dir, [v for v, _ in vis])

@@ -63,7 +63,10 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     brdfs = [_build_brdf(cfg, n, m) for n, m in enumerate(fit.materials)]
     inputs = [str(m.merl_file) for m in fit.materials if m.merl_file is not None]
     _set_threads(cfg.workers)
-    with StageRun(cfg, out_dir, "fit", params=to_plain(fit), inputs=inputs, force=force) as run:
+    params = to_plain(fit)
+    if toral19_requested(cfg):       # the published mixtures are written only when rendered
+        params["gmm_toral19"] = True
+    with StageRun(cfg, out_dir, "fit", params=params, inputs=inputs, force=force) as run:
         if run.skipped:
             return run
         artifacts.write_materials_index(run, [m.name for m in fit.materials])
@@ -71,6 +74,15 @@ def run(cfg, out_dir: Path, *, force: bool = False):
             log(f"[fit] material {spec.name} ({spec.model})")
             run.report[spec.name] = fit_material(run, cfg, n, spec, brdf)
     return run
+
+
+#: Töral19 §V: "for each o_j the EM algorithm is used for fitting 8 SGs"
+TORAL19_LOBES = 8
+
+
+def toral19_requested(cfg) -> bool:
+    """Does the config render `gmm_toral19` (which reads view_gmm_toral19.npz)?"""
+    return cfg.render is not None and "gmm_toral19" in cfg.render.methods
 
 
 def fit_material(run: StageRun, cfg, index: int, spec, brdf) -> dict:
@@ -129,6 +141,22 @@ def write_ndf_sg(run, name: str, brdf, spec, seed: int) -> dict:
     return rep
 
 
+def write_view_gmm_toral19(run, name: str, brdf, spec, kw: dict, gmm) -> float:
+    """view_gmm_toral19.npz: Töral19 §IV–V's mixtures — 8 lobes for every BRDF, each view fitted
+    independently, the specular part (the diffuse one when there is none) — refitted only
+    where `fit.view_gmm` differs from that, else `gmm` itself."""
+    lobes = kw["n_lobes"]
+    if not getattr(brdf, "isotropic", True):
+        lobes = kw["anisotropic_lobes"] or lobes
+    include_diffuse = not brdf.has_specular
+    if lobes != TORAL19_LOBES or spec.coherent or kw["include_diffuse"] != include_diffuse:
+        gmm = fit_view_gmm(brdf, coherent=False,
+                           **{**kw, "n_lobes": TORAL19_LOBES, "anisotropic_lobes": 0,
+                              "include_diffuse": include_diffuse})
+    artifacts.write_view_gmm_toral19(run, name, gmm.arrays())
+    return float(gmm.rel_l2.max())
+
+
 def write_view_gmm(run, name: str, brdf, spec, seed: int, ndf_rep: dict) -> dict:
     """view_gmm.npz + view_gmm.exr, error curve and slice previews, interpolation errors."""
     include_diffuse = spec.component == "full" or not brdf.has_specular
@@ -147,6 +175,8 @@ def write_view_gmm(run, name: str, brdf, spec, seed: int, ndf_rep: dict) -> dict
            "view_theta_deg": th_deg, "rel_l2_per_theta": per_view,
            "max_rel_l2": float(gmm.rel_l2.max()),
            "max_rel_l2_theta_le_60": float(per_view[th_deg <= 60.0 + 1e-9].max(initial=0.0))}
+    if toral19_requested(run.cfg):
+        rep["toral19_max_rel_l2"] = write_view_gmm_toral19(run, name, brdf, spec, kw, gmm)
     thetas = np.radians(spec.report_views_deg)
     series = []
     if spec.report_lobes:

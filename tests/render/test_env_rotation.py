@@ -236,8 +236,12 @@ def test_every_method_under_a_quarter_turn_equals_the_turned_environment(rolled)
     method (the normal-map ones with their environment specular and nm_sh's SH light) within
     1e-4 of the frame's maximum (measured: sg 2e-5 — a few pixels on the sun's steep tails,
     where the B-spline's face coordinate s and its mirror 1 − s round differently —, the
-    others ≤ 1.3e-7); the rotation does change the images (> 5 %)."""
+    others ≤ 1.3e-7); the rotation does change the images (> 5 %). `gmm_toral19`'s dual
+    paraboloid is derived from the turned cube here, not turned texel for texel (a turn about
+    +Y is no permutation of its grid): tests/render/test_gmm_toral19.py turns it about +Z."""
     for m in METHODS:
+        if m == "gmm_toral19":
+            continue
         assert _rel(rolled["got"][m], rolled["turned"][m]) < 1e-4, m
     for m, img in rolled["plain"].items():
         assert _rel(img, rolled["turned"][m]) > 0.05, m
@@ -267,8 +271,11 @@ def test_every_method_against_the_rebuilt_rolled_environment(rolled):
     measured over two skies; the fit's own irradiance error is ~1e-3) and its
     box MIP chain's cube-corner border texels take the first neighbour face in x, y, z order,
     which a turn reorders (gmm 4e-3, fis 9e-3 measured); the turned-array test above is exact
-    for those."""
-    err = {m: _rel(rolled["got"][m], rolled["rebuilt"][m]) for m in METHODS}
+    for those. `gmm_toral19` is left out: its dual paraboloid, resampled from the turned cube
+    and box-filtered on the paraboloid's grid, is not turn-invariant (9 % here, the published
+    method's own property); its rotation is tested about +Z in test_gmm_toral19.py."""
+    err = {m: _rel(rolled["got"][m], rolled["rebuilt"][m]) for m in METHODS
+           if m != "gmm_toral19"}
     print("rotated vs rebuilt:", {m: f"{e:.1e}" for m, e in err.items()})
     assert err["transport"] < 1e-5, err
     assert max(e for m, e in err.items() if m not in ("gmm", "fis")) < 3e-3, err

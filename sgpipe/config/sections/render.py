@@ -6,11 +6,13 @@ from dataclasses import dataclass
 from typing import Literal
 
 from sgpipe.config.schema import InputPath, doc
-from sgpipe.render.methods import METHOD_NAMES, METHODS, REFERENCE, WANG09_SWITCHES
+from sgpipe.render.methods import (METHOD_NAMES, METHODS, REFERENCE, TORAL19_SWITCHES,
+                                   WANG09_SWITCHES)
 
 #: A `render.methods` entry: an OpenCL method of the registry or the Monte Carlo `reference`.
 RenderMethod = Literal[METHOD_NAMES]
 Wang09Improvement = Literal[tuple(WANG09_SWITCHES)]
+Toral19Improvement = Literal[tuple(TORAL19_SWITCHES)]
 
 
 @dataclass
@@ -173,6 +175,13 @@ class RenderSection:
         "NDF lobes), fh (render.fh instead of the printed sigmoid), sharp_lights (limit of the "
         "products for lights sharper than λ 64), exact_brdf (NDF table at suns and sharp "
         "lights).", default_factory=list)
+    gmm_toral19_adds: list[Toral19Improvement] = doc(
+        "gmm_toral19: sgpipe improvements to give back to Töral19 as published (all of them: "
+        "`gmm`; one at a time: the ablation ladder, docs/TORAL19.md): cube_chain (the cube's "
+        "box MIP chain instead of the dual paraboloid), taps (render.gmm_taps taps over each "
+        "lobe instead of one lookup), points (render.gmm_points; needs cube_chain), carry "
+        "(render.gmm_carry instead of the nearest view's lobes), fit (fit.view_gmm's mixtures "
+        "instead of 8 independent lobes per view).", default_factory=list)
     compare_to: str | None = doc("Method whose image is the ground truth for `sgpipe compare`"
                                  " of every other method (usually `reference`); null: none.",
                                  None)
@@ -203,3 +212,6 @@ class RenderSection:
                              f"{self.methods}")
         if len(set(self.methods)) != len(self.methods):
             raise ValueError("methods: listed twice")
+        if "points" in self.gmm_toral19_adds and "cube_chain" not in self.gmm_toral19_adds:
+            raise ValueError("gmm_toral19_adds: points needs cube_chain (the point set is "
+                             "taken out of the cube chain only)")

@@ -9,10 +9,14 @@
  * gmm_mip holds the map without it (else gmm_mip = the whole map).
  * Diffuse not inside the lobes (includes_diffuse = 0), and purely diffuse materials, use the SG
  * light fit (Wang09 eq 39); local lights use the mixture itself: ρ cos ≈ Σ α vMF(l) times the irradiance.
- * Defines: NV, FH_*, MAX_GMM_LOBES; optional GMM_TAPS, GMM_TAP_C, GMM_ROTATE, GMM_VIEW_BLEND. */
+ * The chain is the cubemap box chain, or with GMM_DP Töral19's dual-paraboloid chain (eq 11;
+ * `gmm_toral19`). gmm_mip, gmm_mip_off, gmm_mip_res, gmm_mip_n describe the chain read.
+ * Defines: NV, FH_*, MAX_GMM_LOBES; optional GMM_TAPS, GMM_TAP_C, GMM_ROTATE, GMM_VIEW_BLEND,
+ * GMM_DP. */
 #include "sg.h"
 #include "ssdf.h"
 #include "cubemap.h"
+#include "dpmap.h"
 #include "microfacet.h"
 #include "shading.h"
 
@@ -40,6 +44,10 @@
 #ifndef GMM_VIEW_BLEND
 #define GMM_VIEW_BLEND 0
 #endif
+/* 1: the MIP chain is a dual paraboloid of scale gmm_dp_b (Töral19 eq 9–11), else a cube. */
+#ifndef GMM_DP
+#define GMM_DP 0
+#endif
 /* With baseline shadows each point of the set (a sun, lamp texels) is shadowed at its own
  * direction, decoded once per pixel for at most GMM_VIS_POINTS points (the point set's default
  * size), as sg's exact points are (the same sharpness for the SSDF horizon). */
@@ -49,12 +57,19 @@
 /* cube_mip's trilinear fetch between levels l0 and l1 = l0 + 1 (weight f), the face
  * coordinates computed once (the bordered per-level addressing of cube_bilinear). */
 inline float3 gmm_trilinear(__global const float4 *mip, int off0, int n0, int off1, int n1,
-                            float f, float3 d) {
+                            float f, float3 d, float b) {
     float s, t;
+#if GMM_DP
+    int hemi = dp_coords(d, b, &s, &t);
+    float3 c = (1.0f - f) * dp_bilinear_st(mip, off0, n0, hemi, s, t);
+    if (f <= 0.0f) return c;
+    return c + f * dp_bilinear_st(mip, off1, n1, hemi, s, t);
+#else
     int face = cube_coords(d, &s, &t);
     float3 c = (1.0f - f) * cube_bilinear_st(mip, off0, n0, face, s, t);
     if (f <= 0.0f) return c;
     return c + f * cube_bilinear_st(mip, off1, n1, face, s, t);
+#endif
 }
 
 /* ∫ vMF(ω; a, κ) L(ω) dω from the box MIP chain (Töral19 eq 6–10, made lobe-shaped).
@@ -66,18 +81,24 @@ inline float3 gmm_trilinear(__global const float4 *mip, int off0, int n0, int of
  * that both add up to the lobe's σ². Mirrored by sgpipe.envmap.mip.MipChain.lobe_integral. */
 inline float3 gmm_lobe_integral(__global const float4 *mip, __global const int *off,
                                 __global const int *res, int nlev, float3 a, float kappa,
-                                float coverage) {
-#if GMM_TAPS == 1
+                                float coverage, float b) {
+#if GMM_TAPS == 1 && GMM_DP
+    return dp_mip(mip, off, res, nlev, b, a, dp_lobe_lod(a, kappa, coverage, res[0], b));
+#elif GMM_TAPS == 1
     return cube_mip(mip, off, res, nlev, a, cube_lobe_lod(a, kappa, coverage, res[0]));
 #else
     float sig2 = 1.0f / fmax(kappa, 1e-4f);
+#if GMM_DP
+    float om0 = dp_texel_solid_angle(a, res[0], b);         /* finest texel: h0² (sr) */
+#else
     float om0 = cube_texel_solid_angle(a, res[0]);          /* finest texel: h0² (sr) */
+#endif
     float lod = clamp(0.5f * log2(GMM_TAP_C * GMM_TAP_C * sig2 / om0), 0.0f, (float)(nlev - 1));
     float l0 = floor(lod), f = lod - l0;
     float vf = 0.25f * om0 * exp2(2.0f * l0) * (1.0f + 3.0f * f);
     /* a lobe within the finest texel's filter: the taps would all hit the same 2×2 texels */
     if (sig2 <= 0.5f * vf && lod <= 0.0f)
-        return cube_bilinear(mip, off[0], res[0], a);
+        return gmm_trilinear(mip, off[0], res[0], off[0], res[0], 0.0f, a, b);
     float kp = 1.0f / fmax(sig2 - vf, 0.1f * sig2);
     int i0 = (int)l0, i1 = min(i0 + 1, nlev - 1);
     int off0 = off[i0], n0 = res[i0], off1 = off[i1], n1 = res[i1];
@@ -94,7 +115,7 @@ inline float3 gmm_lobe_integral(__global const float4 *mip, __global const int *
         float3 d = normalize(r * cp * bu + r * sp * bv + w * a);
         float c2 = cp * cg - sp * sg;
         sp = sp * cg + cp * sg; cp = c2;
-        acc += gmm_trilinear(mip, off0, n0, off1, n1, f, d);
+        acc += gmm_trilinear(mip, off0, n0, off1, n1, f, d, b);
     }
     return acc * (1.0f / (float)GMM_TAPS);
 #endif
@@ -235,8 +256,9 @@ __kernel void gmm_shade(GMM_SHADE_ARGS)
                                                           : fh_hat(vis_theta(&vis, ag), kappa);
                 if (!(flags & FLAG_NO_ENV_SPECULAR))
                     col += alpha * scale * env_scale
-                           * (vis_f * (gmm_lobe_integral(gmm_mip, mip_off, mip_res, mip_n, aw,
-                                                         kappa, coverage)
+                           * (vis_f * (gmm_lobe_integral(gmm_mip, gmm_mip_off, gmm_mip_res,
+                                                         gmm_mip_n, aw, kappa, coverage,
+                                                         gmm_dp_b)
                                        + gmm_points_integral(pyr_pts + 2 * n_pv,
                                                              n_gmm_pts - n_pv, aw, kappa))
                               + gmm_points_integral_vis(pyr_pts, n_pv, aw, kappa, pvis));
