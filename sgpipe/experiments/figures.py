@@ -5,8 +5,8 @@
 Spheres under the sample environments (data_samples/sky_sun.exr, studio.exr) with Ward
 α ∈ {0.01, 0.05, 0.1, 0.15, 0.2}, anisotropic Ward (α_x = 0.01, α_y = 0.2) and the same α for
 Beckmann and GGX (kd = 0, ks = 1, no Fresnel: the lobes alone), rendered by `reference`, `fis`,
-`sg`, `gmm` and `gmm1` (Töral19's single MIP lookup per lobe) through the real stages: one
-config per environment is built programmatically
+`sg`, `sg_wang09` (Wang09 as published), `gmm` and `gmm_toral19` (Töral19 as published)
+through the real stages: one config per environment is built programmatically
 (all materials in `fit:`), `fit` and `precompute` run once, then `render` runs per material and
 method. Writes `<out>/<env>/...` (stage outputs), contact sheets (reference | method |
 difference, one row per material) and `docs/RESULTS.md` (PSNR / SSIM per method and α, ms per
@@ -31,9 +31,7 @@ from sgpipe.artifacts.render import read_image
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "data_samples"
 WARD_ALPHAS = (0.01, 0.05, 0.1, 0.15, 0.2)
-METHODS = ("fis", "sg", "gmm", "gmm1")
-# table column → (render method, extra render keys): gmm1 = Töral19's single MIP lookup
-VARIANTS = {"gmm1": ("gmm", {"gmm_taps": 1})}
+METHODS = ("fis", "sg", "sg_wang09", "gmm", "gmm_toral19")
 # the real-time methods' sub-pixel grid: whole frames then compare with the box-filtered reference
 SUPERSAMPLE = 3
 ENVS = {"sky_sun": 0.0, "studio": -1.0}  # environment -> preview exposure (stops)
@@ -141,8 +139,9 @@ def run_env(env: str, out: Path, mats: list[dict], *, size: int, spp: int, seed:
     from sgpipe.metrics import compare_images
     env_path = DATA / f"{env}.exr"
     out.mkdir(parents=True, exist_ok=True)
-    cfg0 = build_config(env_path, mats, mats[0]["name"], ["reference"], size=size, spp=spp,
-                        seed=seed, workers=workers)
+    # every method named: the fit writes what each one reads (gmm_toral19's published fit)
+    cfg0 = build_config(env_path, mats, mats[0]["name"], ["reference", *methods], size=size,
+                        spp=spp, seed=seed, workers=workers)
     notes = {s: _run_stage(s, cfg0, out) for s in ("fit", "precompute")}
     results = {}
     for m in mats:
@@ -159,11 +158,10 @@ def run_env(env: str, out: Path, mats: list[dict], *, size: int, spp: int, seed:
         _noise_floor(ref, ENVS.get(env, 0.0))
         row["reference"] = ref
         for meth in methods:
-            stage_meth, extra = VARIANTS.get(meth, (meth, {}))
-            cfg = build_config(env_path, mats, m["name"], [stage_meth], size=size, spp=spp,
+            cfg = build_config(env_path, mats, m["name"], [meth], size=size, spp=spp,
                                seed=seed, workers=workers,
-                               render_extra={"supersample": SUPERSAMPLE, **extra})
-            r = _render_method(cfg, out, stage_meth)
+                               render_extra={"supersample": SUPERSAMPLE})
+            r = _render_method(cfg, out, meth)
             if "image" in r:
                 r.update(compare_images(r["image"], ref["image"], exposure=ENVS.get(env, 0.0),
                                         surface=r.get("surface_mask")))

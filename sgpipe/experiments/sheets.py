@@ -132,11 +132,13 @@ def write_results_md(path: Path, per_env: dict, mats: list[dict], methods, sheet
          "(radiance 5·10⁴) in sky_sun, linear errors are dominated by the few pixels of its "
          "highlight; the display PSNR (clipped at white) is the one comparable to the paper's.",
          ""]
-    if "gmm1" in methods:
-        L[-1:] = ["Methods: `gmm1` is Töral19's method as published — one lobe-sized MIP "
-                  "lookup per vMF lobe (eq 6–10; `render.gmm_taps: 1`); `gmm` is the default "
-                  "(`gmm_taps: 16`): 16 trilinear taps spread over each lobe (docs/ARTIFACTS.md, "
-                  "lobe integral used by `gmm`).", ""]
+    published = {"sg_wang09": "Wang09 (docs/WANG09.md)", "gmm_toral19": "Töral19 "
+                 "(docs/TORAL19.md: 8 lobes per view, the nearest view, one dual-paraboloid "
+                 "MIP lookup per lobe)"}
+    named = [f"`{m}` is {published[m]} as published" for m in methods if m in published]
+    if named:
+        L[-1:] = ["Methods: " + "; ".join(named) + ". `sg` and `gmm` are sgpipe's defaults, "
+                  "the published methods with every sgpipe improvement.", ""]
     missing = {}
     for env, data in per_env.items():
         res = data["results"]
