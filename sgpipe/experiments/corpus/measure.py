@@ -109,9 +109,11 @@ def _render_methods(cfg, methods, out: Path) -> tuple[dict, dict]:
         return {m: (read_image(out / "render", m), float(t.get(f"{m}_s", math.nan)))
                 for m in ms}
 
+    # the upstream stages see the methods measured (the fit writes gmm_toral19's own mixtures)
+    up = dataclasses.replace(cfg, render=dataclasses.replace(cfg.render, methods=list(methods)))
     try:
         for s in ("fit", "precompute"):
-            _stage(s, cfg, out)
+            _stage(s, up, out)
     except Exception as e:  # noqa: BLE001 - reported, never hidden
         return {}, {m: why(e) for m in methods}
     try:
