@@ -79,7 +79,8 @@ def _fmt(x: float, d: int = 2) -> str:
     return "—" if x is None or not math.isfinite(x) else f"{x:.{d}f}"
 
 
-def markdown(ladder: Ladder, rows: list[dict], meta: dict) -> str:
+def markdown(ladder: Ladder, rows: list[dict], meta: dict, extra: list[str] = ()) -> str:
+    """The results page: title, `extra` sections (the paper's own experiment), the ladder."""
     labels = [label for label, _ in ladder.rungs()]
     seeds = " ".join(map(str, meta["seeds"]))
     out = [f"# Results — {ladder.paper} as published and each sgpipe improvement (ablation "
@@ -92,8 +93,8 @@ def markdown(ladder: Ladder, rows: list[dict], meta: dict) -> str:
            f"each rung below gives one more sgpipe improvement back (`{ladder.adds_key}`, "
            f"{ladder.doc}); the last rung is `{ladder.default}`. Surface display PSNR (dB, "
            "noise-corrected), LDR-ꟻLIP on surface pixels, frame time of the supersampled "
-           "frame.", "",
-           "## Summary per rung", "",
+           "frame.", "", *extra,
+           "## Ablation ladder: summary per rung", "",
            "| rung | median dB | mean dB | mean Δ dB vs previous rung | scenes better / worse "
            "than previous | median ꟻLIP | median ms |", "|---|---|---|---|---|---|---|"]
     prev = None
@@ -111,7 +112,7 @@ def markdown(ladder: Ladder, rows: list[dict], meta: dict) -> str:
                    f"| {delta} | {counts} | {_fmt(float(np.nanmedian(fl)), 3)} "
                    f"| {_fmt(float(np.nanmedian(ms)), 0)} |")
         prev = db
-    out += ["", "## Per scene (surface display PSNR, dB)", "",
+    out += ["", "## Ablation ladder per scene (surface display PSNR, dB)", "",
             "| seed | scene | " + " | ".join(labels) + " |",
             "|---|---|" + "---|" * len(labels)]
     for r in rows:
@@ -121,7 +122,9 @@ def markdown(ladder: Ladder, rows: list[dict], meta: dict) -> str:
     return "\n".join(out) + "\n"
 
 
-def main(ladder: Ladder, argv: list[str] | None = None) -> int:
+def main(ladder: Ladder, argv: list[str] | None = None, extra=None) -> int:
+    """The ladder's command line; `extra(args) -> markdown lines` adds the paper's own
+    experiment (run first) to the page."""
     ap = argparse.ArgumentParser(prog=f"python -m sgpipe.experiments.{ladder.module}",
                                  description=f"{ladder.paper}'s ablation ladder on the "
                                              "fidelity corpus")
@@ -132,15 +135,23 @@ def main(ladder: Ladder, argv: list[str] | None = None) -> int:
     ap.add_argument("--scenes", nargs="+", default=None, help="slot keys (default: all)")
     ap.add_argument("--results", type=Path, default=None,
                     help=f"Markdown report (default <out>/{ladder.module}.md)")
+    ap.add_argument("--ladder-json", type=Path, default=None,
+                    help="reuse the ladder of a previous run (its results .json) instead of "
+                         "measuring it")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    rows = measure_ladder(ladder, a.out, a.seed, size=a.size, spp=a.spp, only=a.scenes)
-    meta = {"seeds": a.seed, "size": a.size, "spp": a.spp,
-            "seconds": time.perf_counter() - t0}
     results = a.results or a.out / f"{ladder.module}.md"
     results.parent.mkdir(parents=True, exist_ok=True)
-    results.write_text(markdown(ladder, rows, meta))
+    head = list(extra(a, results)) if extra is not None else []
+    if a.ladder_json is not None:
+        prev = json.loads(a.ladder_json.read_text())
+        rows, meta = prev["rows"], prev["meta"]
+    else:
+        t0 = time.perf_counter()
+        rows = measure_ladder(ladder, a.out, a.seed, size=a.size, spp=a.spp, only=a.scenes)
+        meta = {"seeds": a.seed, "size": a.size, "spp": a.spp,
+                "seconds": time.perf_counter() - t0}
+    results.write_text(markdown(ladder, rows, meta, head))
     results.with_suffix(".json").write_text(json.dumps({"meta": meta, "rows": rows}, indent=1))
     print(f"{ladder.module}: {len(rows)} scenes in {meta['seconds'] / 60:.1f} min -> {results}")
     return 0

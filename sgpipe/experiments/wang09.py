@@ -1,6 +1,8 @@
-"""Wang09's ablation ladder on the fidelity corpus: `sg_wang09` (the paper as published), then
-each sgpipe improvement given back one at a time (render.sg_wang09_adds, in
-sgpipe.render.methods.WANG09_SWITCHES order) up to `sg` (sgpipe.experiments.ladder).
+"""Wang09's experiment (Fig 7, Fig 9 and Table 1's columns on the teapot scene:
+sgpipe.experiments.wang09_figures) and its ablation ladder on the fidelity corpus: `sg_wang09`
+(the paper as published), then each sgpipe improvement given back one at a time
+(render.sg_wang09_adds, in sgpipe.render.methods.WANG09_SWITCHES order) up to `sg`
+(sgpipe.experiments.ladder).
 
     python -m sgpipe.experiments.wang09 --seed 11 13 --results docs/results/wang09.md
 """
@@ -16,5 +18,13 @@ LADDER = Ladder(paper="Wang09", method="sg_wang09", adds_key="render.sg_wang09_a
                 switches=tuple(WANG09_SWITCHES), default="sg", doc="docs/WANG09.md",
                 module="wang09")
 
+
+
+def teapot_experiment(args, results):
+    """Fig 7, Fig 9 and Table 1 (their plots beside `results`) → the page's lines."""
+    from sgpipe.experiments.wang09_figures import measure, write_figures
+    return write_figures(measure(args.out / "teapot"), results)
+
+
 if __name__ == "__main__":
-    sys.exit(main(LADDER))
+    sys.exit(main(LADDER, extra=teapot_experiment))
