@@ -22,6 +22,17 @@ from sgpipe.stages.base import StageRun, log
 _ENERGY_VIEWS_DEG = (0.0, 45.0, 75.0)
 
 
+#: the largest directional albedo (luminance) a fitted material may have
+ENERGY_LIMIT = 1.01
+
+
+def energy_check_albedo(brdf) -> np.ndarray:
+    """Luminance albedo at the views the fit stage checks (_ENERGY_VIEWS_DEG)."""
+    th = np.radians(_ENERGY_VIEWS_DEG)
+    o = np.stack([np.sin(th), np.zeros_like(th), np.cos(th)], -1)
+    return brdf.albedo(o, n=48) @ LUMINANCE
+
+
 def _build_brdf(cfg, n: int, spec):
     """Validate one material and build its BRDF; every problem is a BadInput naming the key."""
     base = f"fit.materials.{n}"
@@ -36,10 +47,8 @@ def _build_brdf(cfg, n: int, spec):
     except BadInput as e:            # MERL file problems name the data file itself
         raise BadInput(e.message, file=e.file, key=f"{base}.merl_file") from None
     if spec.model != "merl":
-        th = np.radians(_ENERGY_VIEWS_DEG)
-        o = np.stack([np.sin(th), np.zeros_like(th), np.cos(th)], -1)
-        alb = brdf.albedo(o, n=48) @ LUMINANCE
-        if np.max(alb) > 1.01:
+        alb = energy_check_albedo(brdf)
+        if np.max(alb) > ENERGY_LIMIT:
             k = int(np.argmax(alb))
             raise BadInput(f"parameters are not energy conserving: albedo {alb[k]:.3f} > 1 at "
                            f"view θ = {_ENERGY_VIEWS_DEG[k]:g}° (lower kd/ks)",

@@ -56,6 +56,27 @@ def test_material_ranges_over_many_seeds():
     assert max(ratios) <= 20.0 + 1e-9 and max(ratios) > 8.0
 
 
+def test_drawn_materials_pass_the_fit_stages_energy_check():
+    """kd and ks drawn independently can reflect more than they receive (the fit refuses
+    albedo > 1.01): such a draw's diffuse colour is lowered until the albedo is at most 0.99,
+    the lobe kept; an accepted draw is left as drawn; every draw over 30 seeds passes."""
+    from sgpipe.brdf import make_brdf
+    from sgpipe.experiments.corpus.scenes import _energy_conserving, draw_material
+    from sgpipe.stages.fit import ENERGY_LIMIT, energy_check_albedo
+    albedo = lambda model, p: float(np.max(energy_check_albedo(make_brdf(model, p))))  # noqa
+    hot = {"alpha": 0.1, "ks": 0.8, "kd": [0.5, 0.45, 0.3], "fresnel": "none"}
+    assert albedo("ggx", hot) > ENERGY_LIMIT
+    fixed = _energy_conserving("ggx", hot)
+    assert albedo("ggx", fixed) <= 0.99 and fixed["ks"] == 0.8 and fixed["alpha"] == 0.1
+    assert fixed["kd"][0] < 0.5 and fixed["kd"][0] / fixed["kd"][2] == pytest.approx(5 / 3, 1e-3)
+    cool = {"alpha": 0.1, "ks": 0.5, "kd": [0.2, 0.2, 0.2], "fresnel": "none"}
+    assert _energy_conserving("ggx", cool) == cool
+    for seed in range(30):
+        for fam in ("ggx_diffuse", "beckmann_diffuse", "ggx_aniso_diffuse", "ward"):
+            m = draw_material(fam, np.random.default_rng(seed))
+            assert albedo(m["model"], m["params"]) <= ENERGY_LIMIT, m
+
+
 def test_same_seed_same_scenes_and_bytes(corpus, tmp_path):
     again = scenes(7, tmp_path, env_height=ENV_H)
     for a, b in zip(corpus, again):

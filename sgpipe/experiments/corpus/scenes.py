@@ -131,7 +131,20 @@ def draw_material(family: str, rng: np.random.Generator) -> dict:
         raise ValueError(f"unknown material family {family!r}")
     model = {"nm_beckmann": "beckmann", "nm_blinn_phong": "blinn_phong",
              "ward_aniso": "ward", "ggx_sharp": "ggx"}.get(family, family.split("_")[0])
-    return {"name": "surface", "model": model, "params": p}
+    return {"name": "surface", "model": model, "params": _energy_conserving(model, p)}
+
+
+def _energy_conserving(model: str, p: dict) -> dict:
+    """`p` as drawn if the fit stage accepts it, else with its diffuse colour lowered (by 10 %
+    steps) to an albedo ≤ 0.99: a drawn kd + ks can reflect more than it receives."""
+    from sgpipe.brdf import make_brdf
+    from sgpipe.stages.fit import ENERGY_LIMIT, energy_check_albedo
+    albedo = lambda q: float(np.max(energy_check_albedo(make_brdf(model, q))))  # noqa: E731
+    if "kd" not in p or albedo(p) <= ENERGY_LIMIT:
+        return p
+    while albedo(p) > 0.99:
+        p = {**p, "kd": [round(0.9 * c, 4) for c in p["kd"]]}
+    return p
 
 
 def _environment(slot: Slot, rng, work: Path, key: str, h: int) -> tuple[Path, float]:
