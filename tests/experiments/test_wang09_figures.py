@@ -44,6 +44,6 @@ def test_page_has_plots_table_and_ladder(tmp_path):
                                             "seconds": 60.0}, head)
     assert "| 20600 | 8 | 12.3 s | 30D (1.5 s) | 3.0 MB | 6.1 / 11.2 | 5.0 / 9.0 |" in md
     assert "![Fig 7](figures/wang09_fig7.png)" in md
-    assert md.index("### Fig 9") < md.index("## Ablation ladder: summary per rung")
+    assert md.index("### Fig 9") < md.index("## Ablation ladder") < md.index("### Summary per rung")
     assert "| 1024 | 0.0003 (max 0.001) |" in md
     assert "| floor (RMS rad / sign %) | 0.300 / 10.0 |" in md
