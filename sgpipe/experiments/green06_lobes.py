@@ -156,6 +156,14 @@ def gaussian_fit(T, dirs, omega, n: int, starts: int = 6):
     """(parameters (n, 4), approximation): n Gaussians with w > 0 by least squares from
     several starts (the data's mean direction and peak, σ over a log grid); further Gaussians
     are added at the largest residual texel of the best fit with one fewer."""
+    fits = gaussian_fits(T, dirs, omega, n, starts)
+    return fits[-1]
+
+
+def gaussian_fits(T, dirs, omega, n: int, starts: int = 6, late_starts: int = 2) -> list:
+    """[(parameters (k, 4), approximation) for k = 1..n]: the greedy sequence of gaussian_fit
+    (each k refits all k Gaussians from the k − 1 fit plus one new start; `late_starts` σ
+    starts from k = 4 on, where each fit has 16+ parameters)."""
     sq = np.sqrt(omega)
 
     def resid(p):
@@ -165,7 +173,7 @@ def gaussian_fit(T, dirs, omega, n: int, starts: int = 6):
         th = np.arccos(np.clip(d[1], -1, 1))
         return [th, np.arctan2(d[2], d[0]), np.log(sig), np.log(max(val, 1e-12))]
 
-    best, prev = None, np.zeros((0, 4))
+    best, prev, out = None, np.zeros((0, 4)), []
     for k in range(1, n + 1):
         base = gaussians_eval(prev, dirs) if len(prev) else np.zeros_like(T)
         r = T - base
@@ -174,24 +182,53 @@ def gaussian_fit(T, dirs, omega, n: int, starts: int = 6):
         cands = [dirs[j]] + ([m / np.linalg.norm(m)] if np.linalg.norm(m) > 0 else [])
         best = None
         for d in cands:
-            for sig in np.geomspace(0.02, 0.8, starts):
+            for sig in np.geomspace(0.02, 0.8, starts if k <= 3 else late_starts):
                 p0 = np.concatenate([prev.ravel(), start_at(d, max(r[j], T.max() * 1e-3), sig)])
                 sol = least_squares(resid, p0, method="lm", max_nfev=400 * len(p0))
                 if best is None or sol.cost < best.cost:
                     best = sol
         prev = best.x.reshape(-1, 4)
-    return prev, gaussians_eval(prev, dirs)
+        out.append((prev, gaussians_eval(prev, dirs)))
+    return out
+
+
+def single_gaussian_search(T, dirs, omega, axes_res: int = 16, sigmas: int = 48):
+    """(parameters (1, 4), approximation): the best single Gaussian by exhaustive search —
+    every texel direction of a 6×axes_res² cube as the axis × `sigmas` σ in [0.02, 2] (log),
+    each with its optimal weight w = Σ Ω T g / Σ Ω g² (w ≥ 0) — then least squares from the
+    best candidate. Checks that gaussian_fit's one Gaussian is the global optimum."""
+    axes = light_cube(axes_res).dirs
+    tt = float(np.sum(omega * T * T))
+    best = (np.inf, None)
+    for sig in np.geomspace(0.02, 2.0, sigmas):
+        G = np.exp((dirs @ axes.T - 1.0) / (sig * sig))
+        a = (omega * T) @ G
+        b = omega @ (G * G)
+        err2 = 1.0 - np.where(a > 0, a * a / (b * tt), 0.0)
+        k = int(np.argmin(err2))
+        if err2[k] < best[0]:
+            best = (err2[k], (axes[k], sig, max(a[k] / b[k], 1e-12)))
+    d, sig, w = best[1]
+    p0 = [np.arccos(np.clip(d[1], -1, 1)), np.arctan2(d[2], d[0]), np.log(sig), np.log(w)]
+    sq = np.sqrt(omega)
+    sol = least_squares(lambda p: sq * (gaussians_eval(p, dirs) - T), p0, method="lm")
+    p = sol.x.reshape(1, 4)
+    return p, gaussians_eval(p, dirs)
 
 
 def case_errors(case: LobeCase, res: int = 64, max_gaussians: int = 3, starts: int = 6) -> dict:
     """Fig 5's numbers for one case: per N = 1..max_gaussians the relative L2 errors of N
-    Gaussians, of the 7N largest Haar coefficients and of SH with ≥ 7N coefficients, and the
-    approximations at N = 1 for the figure."""
+    Gaussians, of the 7N largest Haar coefficients and of SH with ≥ 7N coefficients; the
+    exhaustive single-Gaussian search's error; and the approximations at N = 1 for the
+    figure."""
     cube, T = sample_case(case, res)
     out = {"name": case.name, "title": case.title, "rows": [], "cube": cube, "T": T}
+    fits = gaussian_fits(T, cube.dirs, cube.omega, max_gaussians, starts)
+    out["single_search"] = relative_l2(single_gaussian_search(T, cube.dirs, cube.omega)[1], T,
+                                       cube.omega)
     for n in range(1, max_gaussians + 1):
         budget = 7 * n
-        p, g = gaussian_fit(T, cube.dirs, cube.omega, n, starts)
+        p, g = fits[n - 1]
         h = haar_approx(T, cube.omega, res, budget)
         lmax = sh_order_for(budget)
         s = sh_approx(T, cube.dirs, cube.omega, lmax)
@@ -206,4 +243,4 @@ def case_errors(case: LobeCase, res: int = 64, max_gaussians: int = 3, starts: i
 
 __all__ = ["LobeCase", "CASES", "sample_case", "relative_l2", "haar2d", "ihaar2d",
            "haar_approx", "sh_order_for", "sh_approx", "gaussians_eval", "gaussian_fit",
-           "case_errors"]
+           "gaussian_fits", "single_gaussian_search", "case_errors"]

@@ -73,3 +73,22 @@ def test_one_gaussian_fits_a_gaussian_exactly():
     p, approx = gaussian_fit(T, cube.dirs, cube.omega, 1, starts=2)
     assert relative_l2(approx, T, cube.omega) < 1e-6
     assert np.exp(p[0, 2]) == pytest.approx(0.3, rel=1e-6)
+
+
+def test_exhaustive_single_gaussian_search_finds_the_global_optimum():
+    """single_gaussian_search recovers a Gaussian exactly, and on a function one Gaussian
+    cannot hold (two separated lobes) it ends at the larger lobe, the best single Gaussian:
+    gaussian_fit's one Gaussian is no better (it is the check that fit is not weak)."""
+    from sgpipe.experiments.green06_lobes import gaussian_fits, single_gaussian_search
+    cube = light_cube(16)
+    T = 2.5 * sg(cube.dirs, 1 / 0.3 ** 2)
+    p, approx = single_gaussian_search(T, cube.dirs, cube.omega, axes_res=8, sigmas=16)
+    assert relative_l2(approx, T, cube.omega) < 1e-6
+    a = np.array([0.0, 0.8, 0.6])
+    a /= np.linalg.norm(a)
+    two = T + 1.5 * np.exp((cube.dirs @ a - 1.0) / 0.2 ** 2)
+    _, g = single_gaussian_search(two, cube.dirs, cube.omega, axes_res=8, sigmas=16)
+    fits = gaussian_fits(two, cube.dirs, cube.omega, 2, starts=2)
+    e_search, e_fit = (relative_l2(x, two, cube.omega) for x in (g, fits[0][1]))
+    assert e_search == pytest.approx(e_fit, abs=2e-3) and e_search > 0.1
+    assert relative_l2(fits[1][1], two, cube.omega) < 1e-4      # two Gaussians hold it
