@@ -156,6 +156,27 @@ def dual_paraboloid_solid_angles(res, b=1.0):
     return np.broadcast_to(om, (2, res, res)).copy()
 
 
+def dual_paraboloid_resample(sample, res: int, b: float = 1.0, supersample: int = 2):
+    """Dual-paraboloid texels (2, res, res, C) of a spherical function: each the solid-angle
+    weighted mean (dω ∝ (1 + ρ²)⁻²) of `supersample`² values `sample(dirs (2, res, res, 3)) →
+    (2, res, res, C)` over the texel (Töral19 eq 11 with scale b)."""
+    ss = int(supersample)
+    off = (np.arange(ss) + 0.5) / ss
+    c = np.arange(res)
+    acc = 0.0
+    wsum = 0.0
+    for oa in off:
+        for ob in off:
+            s = (c[None, None, :] + ob) / res
+            t = (c[None, :, None] + oa) / res
+            d = dual_paraboloid_dir(np.arange(2)[:, None, None], s, t, b)
+            rho2 = (b * (2 * s - 1)) ** 2 + (b * (1 - 2 * t)) ** 2
+            w = 1.0 / (1.0 + rho2) ** 2
+            acc = acc + sample(d) * w[..., None]
+            wsum = wsum + w
+    return acc / wsum[..., None]
+
+
 def dual_paraboloid_texel_dirs(res, b=1.0):
     """Texel-centre directions (2, res, res, 3)."""
     c = (np.arange(res) + 0.5) / res

@@ -79,27 +79,16 @@ def cubemap_to_latlong(faces: np.ndarray, h: int, w: int) -> np.ndarray:
 def cubemap_to_dual_paraboloid(faces: np.ndarray, res: int, b: float = 1.0, *,
                                supersample: int = 2) -> np.ndarray:
     """Cubemap → dual paraboloid (2, res, res, C) (Töral19 eq 11 with scale b): each texel
-    is the solid-angle-weighted mean (dω ∝ (1 + ρ²)^−2) of ss×ss bilinear cube samples."""
-    from sgpipe.core.maps import dual_paraboloid_dir
+    is the solid-angle-weighted mean (dω ∝ (1 + ρ²)^−2) of ss×ss bilinear cube samples
+    (sgpipe.core.maps.dual_paraboloid_resample)."""
+    from sgpipe.core.maps import dual_paraboloid_resample
     bord = bordered_box_level(np.asarray(faces, np.float64))
     n = faces.shape[1]
-    ss = int(supersample)
-    off = (np.arange(ss) + 0.5) / ss
-    acc = 0.0
-    wsum = 0.0
-    c = np.arange(res)
-    for oa in off:
-        for ob in off:
-            s = (c[None, None, :] + ob) / res
-            t = (c[None, :, None] + oa) / res
-            d = dual_paraboloid_dir(np.arange(2)[:, None, None], s, t, b)
-            rho2 = (b * (2 * s - 1)) ** 2 + (b * (1 - 2 * t)) ** 2
-            w = 1.0 / (1.0 + rho2) ** 2
-            vals = sample_dirs_bordered(bord, n, 1, np.ascontiguousarray(d.reshape(-1, 3)),
-                                        False).reshape(2, res, res, -1)
-            acc = acc + vals * w[..., None]
-            wsum = wsum + w
-    return acc / wsum[..., None]
+
+    def sample(d):
+        return sample_dirs_bordered(bord, n, 1, np.ascontiguousarray(d.reshape(-1, 3)),
+                                    False).reshape(d.shape[:-1] + (-1,))
+    return dual_paraboloid_resample(sample, res, b, supersample)
 
 
 def dual_paraboloid_to_image(dp: np.ndarray) -> np.ndarray:

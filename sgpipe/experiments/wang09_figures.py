@@ -24,7 +24,7 @@ POINT_LIGHTS = [{"type": "point", "position": [-2.0, 3.2, 1.6], "intensity": [8,
                  "radius": 0.05}]
 
 
-def config(out: Path, *, lights: bool, seed: int = 0, workers: int = 0):
+def config(*, lights: bool, seed: int = 0, workers: int = 0):
     """The teapot scene as a validated root Config."""
     from sgpipe.config.root import Config
     from sgpipe.config.schema import Context, build
@@ -50,29 +50,25 @@ def config(out: Path, *, lights: bool, seed: int = 0, workers: int = 0):
     return build(Config, raw, (), Context(file=None, lines={}))
 
 
-def _stage(name: str, cfg, out: Path) -> None:
-    import importlib
-    importlib.import_module(f"sgpipe.stages.{name}").run(cfg, out)
-
-
 def _bytes(folder: Path, pattern: str) -> int:
     return sum(p.stat().st_size for p in folder.rglob(pattern) if p.is_file())
 
 
 def measure(out: Path, *, workers: int = 0, log=print) -> dict:
     """Run fit, precompute and the two renders; collect Fig 7, Fig 9 and Table 1's numbers."""
+    from sgpipe.experiments.corpus.measure import run_stage
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    env_cfg = config(out, lights=False, workers=workers)
+    env_cfg = config(lights=False, workers=workers)
     for s in ("fit", "precompute"):
         log(f"[wang09] {s}")
-        _stage(s, env_cfg, out)
+        run_stage(s, env_cfg, out)
     vis = json.loads((out / "visibility" / "report.json").read_text())
     vt = json.loads((out / "visibility" / "timings.json").read_text())
     fps = {}
     for label, lights in (("env", False), ("points", True)):
         log(f"[wang09] render ({label})")
-        _stage("render", config(out, lights=lights, workers=workers), out)
+        run_stage("render", config(lights=lights, workers=workers), out)
         t = json.loads((out / "render" / "timings.json").read_text())
         fps[label] = {m: 1.0 / float(t[f"{m}_s"]) for m in ("sg", "sg_wang09")}
     objects = vis["objects"]

@@ -213,24 +213,15 @@ class DpChain:
     def from_cube(cls, mip: "CubeChain", b: float = 1.2, supersample: int = 2) -> "DpChain":
         """The envmap stage's chain from a cube chain's finest level, for environments built
         without the stage: paraboloids of the cube's resolution, each texel the solid-angle
-        weighted mean (dω ∝ (1 + ρ²)⁻²) of ss × ss bilinear cube samples
-        (envmap.maps.cubemap_to_dual_paraboloid), then the solid-angle weighted box chain
+        weighted mean of ss × ss bilinear cube samples (core.maps.dual_paraboloid_resample, as
+        envmap.maps.cubemap_to_dual_paraboloid), then the solid-angle weighted box chain
         (envmap.mip.dp_mip_chain)."""
-        from sgpipe.core.maps import (dual_paraboloid_dir, dual_paraboloid_solid_angles,
+        from sgpipe.core.maps import (dual_paraboloid_resample, dual_paraboloid_solid_angles,
                                       solid_angle_box_chain)
         n = int(mip.res[0])
         level0 = mip.level(0)
-        c = np.arange(n)
-        acc, wsum = 0.0, 0.0
-        for oa in (np.arange(supersample) + 0.5) / supersample:
-            for ob in (np.arange(supersample) + 0.5) / supersample:
-                s = (c[None, None, :] + ob) / n
-                t = (c[None, :, None] + oa) / n
-                d = dual_paraboloid_dir(np.arange(2)[:, None, None], s, t, b)
-                w = 1.0 / (1.0 + (b * (2 * s - 1)) ** 2 + (b * (1 - 2 * t)) ** 2) ** 2
-                acc = acc + bilinear_b1(level0, n, d) * w[..., None]
-                wsum = wsum + w
-        chain = solid_angle_box_chain(acc / wsum[..., None], dual_paraboloid_solid_angles(n, b))
+        dp = dual_paraboloid_resample(lambda d: bilinear_b1(level0, n, d), n, b, supersample)
+        chain = solid_angle_box_chain(dp, dual_paraboloid_solid_angles(n, b))
         return cls.from_levels([np.concatenate([lv[0], lv[1]], axis=1) for lv in chain], b)
 
 

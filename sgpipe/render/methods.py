@@ -153,7 +153,7 @@ WANG09_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
 
 #: What makes `gmm_toral19` Töral19 §IV–V as published, one entry per sgpipe improvement that
 #: `gmm` has over the paper: its compile-time defines, and for `points` and `fit` what the
-#: renderer binds (Renderer.gmm_bindings). `render.gmm_toral19_adds` names improvements to give
+#: renderer binds (Renderer.method_bindings). `render.gmm_toral19_adds` names improvements to give
 #: back — all of them make it `gmm` (a test checks); one at a time, the ablation ladder of
 #: docs/results/toral19.md.
 TORAL19_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
@@ -172,6 +172,9 @@ TORAL19_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
     # interpolated when fit.view_gmm.coherent)
     "fit": (),
 }
+
+#: Each published variant's switch table, by method name.
+PUBLISHED_SWITCHES = {"sg_wang09": WANG09_SWITCHES, "gmm_toral19": TORAL19_SWITCHES}
 
 #: The Han07 normal-map methods (stable names: the figures build on them).
 NORMALMAP_METHODS = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh")

@@ -18,7 +18,7 @@ from sgpipe.render import opencl
 from sgpipe.render.envdata import EnvData
 from sgpipe.render.headers import fh_coefficients, kernel_headers
 from sgpipe.render.materials import MaterialTable
-from sgpipe.render.methods import METHODS, TORAL19_SWITCHES, WANG09_SWITCHES
+from sgpipe.render.methods import METHODS, PUBLISHED_SWITCHES, TORAL19_SWITCHES
 from sgpipe.render.records import ObjectFloatSlot, ObjectSlot
 
 
@@ -230,8 +230,7 @@ class Renderer:
                      "GMM_TAPS": max(1, self.gmm_taps), "GMM_ROTATE": self.gmm_carry}
         d.update({k: per_scene[k] for k in METHODS[method].defines})
         d.update(self.env.rotation_defines())     # render.environment_rotation (cubemap.h)
-        given_back = {k for table, adds in self._published_adds(method)
-                      for name in adds for k, _ in table[name]}
+        given_back = self._given_back(method)
         for k, v in METHODS[method].fixed_defines:
             if k in given_back:
                 continue
@@ -253,13 +252,11 @@ class Renderer:
                            env_sg=dev(self.env.light_records().reshape(-1, 4)))
         self._kernels.clear()
 
-    def _published_adds(self, method: str):
-        """[(switch table, improvements given back)] of a published variant; [] otherwise."""
-        if method == "sg_wang09":
-            return [(WANG09_SWITCHES, self.sg_wang09_adds)]
-        if method == "gmm_toral19":
-            return [(TORAL19_SWITCHES, self.gmm_toral19_adds)]
-        return []
+    def _given_back(self, method: str) -> set[str]:
+        """The defines of a published variant's switches that the config gives back."""
+        adds = {"sg_wang09": self.sg_wang09_adds,
+                "gmm_toral19": self.gmm_toral19_adds}.get(method, ())
+        return {k for name in adds for k, _ in PUBLISHED_SWITCHES[method][name]}
 
     def method_materials(self, method: str) -> MaterialTable:
         """The material table `method` reads: gmm_toral19's published fit unless `fit` is
@@ -269,7 +266,7 @@ class Renderer:
             return self.materials_toral19
         return self.materials
 
-    def gmm_bindings(self, method: str) -> dict:
+    def method_bindings(self, method: str) -> dict:
         """The values `method` binds beyond `static` (built on first use): for gmm and
         gmm_toral19 the MIP chain the lobes read — the cube chain without the point set beside
         the points' exact vMF sum (render.gmm_points; the subtraction costs ~0.4 s at N = 128),
@@ -278,9 +275,9 @@ class Renderer:
         if method in self._bindings:
             return self._bindings[method]
         e, out = self.env, {}
+        dev = lambda a, dt=np.float32: opencl.to_device(self.ctx, a, dtype=dt)  # noqa: E731
         if any(name == "gmm_mip" for _, name in METHODS[method].parameters):
             adds = self.gmm_toral19_adds if method == "gmm_toral19" else tuple(TORAL19_SWITCHES)
-            dev = lambda a, dt=np.float32: opencl.to_device(self.ctx, a, dtype=dt)  # noqa: E731
             if "cube_chain" not in adds:
                 dp = e.dp_chain()
                 out.update(gmm_mip=dev(dp.texels), gmm_mip_off=dev(dp.offsets, np.int32),
@@ -295,7 +292,6 @@ class Renderer:
                            n_gmm_pts=len(e.point_dirs) if res_mip is not e.mip else 0)
         mats = self.method_materials(method)
         if mats is not self.materials:
-            dev = lambda a, dt=np.float32: opencl.to_device(self.ctx, a, dtype=dt)  # noqa: E731
             out.update(mats=dev(mats.records), gmm=dev(mats.gmm))
         self._bindings[method] = out
         return out
@@ -331,8 +327,9 @@ class Renderer:
         if n == 0:
             return np.zeros((0, 3), np.float32)
         kern = self.kernel(method)
-        values = {**self.static, **self.gmm_bindings(method), **g, "flags": flags, "coverage": mip_coverage,
-                  "interp": 1 if gmm_interpolate else 0, "nsamp": fis_samples, "seed": seed}
+        values = {**self.static, **self.method_bindings(method), **g, "flags": flags,
+                  "coverage": mip_coverage, "interp": 1 if gmm_interpolate else 0,
+                  "nsamp": fis_samples, "seed": seed}
         args = [_SCALAR.get(ctype, _as_is)(values[name])
                 for ctype, name in METHODS[method].parameters]
         # an explicit work-group size: left to the runtime, PoCL's CPU device picks groups so

@@ -62,8 +62,9 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
     rs = cfg.render
     if cfg.scene is None or not cfg.scene.objects:
         raise BadInput("the scene has no objects to render", key="scene.objects")
-    env = (EnvData.constant(0.0) if cfg.envmap is None else EnvData.load(
-        out_dir / "envmap", dual_paraboloid=any(x.name == "gmm_toral19" for x in methods)))
+    toral19 = any(x.name == "gmm_toral19" for x in methods)
+    env = (EnvData.constant(0.0) if cfg.envmap is None
+           else EnvData.load(out_dir / "envmap", dual_paraboloid=toral19))
     vis_dir = out_dir / "visibility" if cfg.visibility is not None else None
     if vis_dir is not None and not vis_dir.is_dir():
         raise BadInput("visibility artifacts not found (run `sgpipe precompute` first)",
@@ -80,8 +81,7 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
                            key="render.material_textures")
     names, mats = [], []
     # gmm_toral19 reads Töral19's published per-view fit unless `fit` is given back
-    published_gmm = (any(x.name == "gmm_toral19" for x in methods)
-                     and "fit" not in rs.gmm_toral19_adds)
+    published_gmm = toral19 and "fit" not in rs.gmm_toral19_adds
     for o, spec in zip(cfg.scene.objects, specs):
         if o.material in names:
             continue

@@ -2,8 +2,6 @@
 schema with Table 1's settings, the Fig 7 / Fig 9 plots are written, and the page carries the
 measured numbers and the ablation ladder below them."""
 
-from pathlib import Path
-
 from sgpipe.experiments import ladder as ladder_mod
 from sgpipe.experiments.wang09 import LADDER
 from sgpipe.experiments.wang09_figures import PCA_TERMS, config, write_figures
@@ -25,10 +23,10 @@ def _result():
 
 
 def test_config_is_table1s_teapot():
-    cfg = config(Path("/tmp"), lights=True)
+    cfg = config(lights=True)
     assert cfg.visibility.pca_terms == 30 and len(cfg.render.lights) == 2
     assert cfg.render.methods == ["sg", "sg_wang09"]
-    assert config(Path("/tmp"), lights=False).render.lights == []
+    assert config(lights=False).render.lights == []
 
 
 def test_page_has_plots_table_and_ladder(tmp_path):

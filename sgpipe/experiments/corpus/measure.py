@@ -86,7 +86,7 @@ def display_errors(image, ref: dict, mask=None) -> dict:
     return {"raw_db": _db(raw), "db": _db(raw - noise), "floor_db": _db(noise)}
 
 
-def _stage(name: str, cfg, out: Path) -> None:
+def run_stage(name: str, cfg, out: Path) -> None:
     import importlib
     importlib.import_module(f"sgpipe.stages.{name}").run(cfg, out)
 
@@ -104,7 +104,7 @@ def _render_methods(cfg, methods, out: Path) -> tuple[dict, dict]:
     def render(ms):
         rs = dataclasses.replace(cfg.render, methods=list(ms), supersample=SUPERSAMPLE,
                                  timing_repeats=1, compare_to=None)
-        _stage("render", dataclasses.replace(cfg, render=rs), out)
+        run_stage("render", dataclasses.replace(cfg, render=rs), out)
         t = json.loads((out / "render" / "timings.json").read_text())
         return {m: (read_image(out / "render", m), float(t.get(f"{m}_s", math.nan)))
                 for m in ms}
@@ -113,7 +113,7 @@ def _render_methods(cfg, methods, out: Path) -> tuple[dict, dict]:
     up = dataclasses.replace(cfg, render=dataclasses.replace(cfg.render, methods=list(methods)))
     try:
         for s in ("fit", "precompute"):
-            _stage(s, up, out)
+            run_stage(s, up, out)
     except Exception as e:  # noqa: BLE001 - reported, never hidden
         return {}, {m: why(e) for m in methods}
     try:

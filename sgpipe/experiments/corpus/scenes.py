@@ -140,10 +140,14 @@ def _energy_conserving(model: str, p: dict) -> dict:
     from sgpipe.brdf import make_brdf
     from sgpipe.stages.fit import ENERGY_LIMIT, energy_check_albedo
     albedo = lambda q: float(np.max(energy_check_albedo(make_brdf(model, q))))  # noqa: E731
-    if "kd" not in p or albedo(p) <= ENERGY_LIMIT:
+    if "kd" not in p:
         return p
-    while albedo(p) > 0.99:
+    a = albedo(p)
+    if a <= ENERGY_LIMIT:
+        return p
+    while a > 0.99:
         p = {**p, "kd": [round(0.9 * c, 4) for c in p["kd"]]}
+        a = albedo(p)
     return p
 
 
