@@ -98,7 +98,8 @@ SG_PARAMS = """
 #: the transport meshes' faces, the Gaussians, SH transfer vectors (whole, and the interreflected
 #: part alone), diffuse f_d, the light's SH coefficients (whole map, map minus the point set, the
 #: point set), the point set merged into small lights (direction, sharpness; energy), the 92-view
-#: lookup tables (render.transport_data), then the accurate Γ_L chain.
+#: lookup tables (render.transport_data), the accurate Γ_L chain, the local lights, the NDF
+#: tables' records (delta lights' exact BRDF).
 TRANSPORT_PARAMS = """
     __global const int4 *tp_obj, __global const int *tp_faces, __global const float4 *tp_gauss,
     __global const float *tp_sh, __global const float *tp_sh_ind, __global const float4 *tp_fd,
@@ -110,7 +111,8 @@ TRANSPORT_PARAMS = """
     const float4 env_mean,
     __global const float4 *pyr_pts, const int n_pts,
     __global const float4 *pyr_raw, const int raw_n, const float env_scale,
-    __global const float4 *lights, const int n_lights"""
+    __global const float4 *lights, const int n_lights,
+    __global const int4 *ndf_info"""
 
 #: ... what the normal-map methods (`vmf`, `normals_mip`, `toksvig`, `engine_bake`, `nm_sh`;
 #: Han07) take next: the packed pyramids and per-object BRDF records (render.normalmap_data),
@@ -204,7 +206,7 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            defines=("MAX_NDF_LOBES",), baseline_shadows=True, needs_ndf_table=True),
     Method("transport", "Green06 per-vertex view-dependent Gaussians + SH diffuse PRT",
            "transport_shade", (PIXEL_PARAMS, TRANSPORT_PARAMS, TAIL_PARAMS),
-           needs_transport=True),
+           needs_transport=True, needs_ndf_table=True),
     Method("vmf", "Han07 vMF-filtered normal map (Algorithm 2, eq 20–21 lights, eq 24–26 "
            "environment)", "vmf_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS),
            needs_normalmap=True),

@@ -31,7 +31,6 @@
 #define SPEC_SUBLOBES 3
 #endif
 #define SHARP_CACHE 4       /* sharp lights whose irradiance is computed once per pixel */
-#define SG_POINT_LAMBDA 2e4f  /* the point set's sharpness for the SSDF horizon (f̂_h) */
 
 /* Wang09 eq 17–20 with the warp's anisotropy kept: an NDF lobe G(h; g, λ, μ) seen from o maps
  * to i-space around p = reflect(o, g) with sharpness λ/4 in the plane of incidence and
@@ -119,19 +118,12 @@ __kernel void sg_shade(SG_SHADE_ARGS)
      * (spec_cosine), in the geometric frame; built on the fly (no per-lobe arrays: private
      * memory stays small for any MAX_NDF_LOBES). */
     int nsg = (int)m[MAT_NLOBES], lobe0 = (int)m[MAT_LOBE0];
-    /* The point set (a sun) with the exact BRDF where the material has its NDF table: a delta
-     * light needs ρ at one direction, and the lobes' Gaussian fall-off loses GGX's power-law
-     * tail, which a sun 10⁴× the sky lifts above white far from the highlight. */
+    /* The point set (a sun) with the exact BRDF where the material has its NDF table
+     * (shading.h points_exact_specular). */
     int exact_pts = ndf.w && !(flags & FLAG_NO_ENV_SPECULAR);
-    for (int k = 0; exact_pts && k < n_pts; ++k) {
-        float3 lg = to_local(pyr_pts[2 * k].xyz, T, B, N);
-        float3 lp = quat_rotate(qi, lg);
-        if (lp.z <= 0.0f || lg.z <= 0.0f) continue;
-        float3 h = normalize(op + lp);
-        rs += (env_scale * lp.z * ndf_table(tables, ndf, h)
-               * fh_hat(vis_theta(&vis, lg), SG_POINT_LAMBDA))
-              * mf_M(m, tables, ks, op, lp) * pyr_pts[2 * k + 1].xyz;
-    }
+    if (exact_pts)
+        rs += points_exact_specular(pyr_pts, n_pts, m, tables, ndf, ks, op, qi, T, B, N, &vis,
+                                    env_scale);
 #ifdef W09_NO_ASG
     int na = 0;
 #else

@@ -12,8 +12,14 @@
  * views around the pixel's view direction, then the three are blended barycentrically
  * (transport.h, mirroring sgpipe.transport.interp). Green06's G(ω) = exp((ω·μ − 1)/σ²) is the
  * SG of sg.h with p = μ, λ = 1/σ², amplitude w, so ∫ w G L dω = w Γ_L(μ, 1/σ²) — one accurate
- * pyramid lookup (cubemap.h gamma_lookup_acc + the point set), as `sg` does. Local lights
- * (render.lights) too: see tp_light_glossy and shading.h sg_light_diffuse.
+ * pyramid lookup (cubemap.h gamma_lookup_acc), as `sg` does. Delta light (the environment's
+ * point set, lights sharper than SHARP_LIGHT) is a departure from §5, as the diffuse side's
+ * suns are: where the material has its NDF table, its glossy part is the exact specular BRDF
+ * at the light's direction times the light's SSDF horizon (shading.h points_exact_specular,
+ * as `sg` shades it), because a Gaussian fitted to the lobe keeps the lobe's integral but not
+ * its value at one direction (GGX's tail under a sun 10⁴× the sky). TP_GAUSSIAN_POINTS (the
+ * published `transport_green06`) keeps them in the Gaussians: w·G(c)·E per point. Local
+ * lights (render.lights): see tp_light_glossy and shading.h sg_light_diffuse.
  * tp_obj per object: (first vertex row, first face, Gaussians K, has data). */
 #include "sg.h"
 #include "ssdf.h"
@@ -42,12 +48,26 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
     int tri = gtri[gid];
     float3 rd = (float3)(0.0f), rs = (float3)(0.0f);
     if (to.w != 0 && tri >= 0) {
+        Pixel px = pixel_init(gid, gnrm, gtan, gview, gpos, guv, gobj, objs, mats, texels,
+                              texinfo);
+        float3 N = px.N, T = px.T, B = px.B, x = px.x;
+        Vis vis;
+        vis_init(&vis, px.ob, OBJF_MAXD(objf[gobj[gid]]), tri, gbary[gid], vfaces, coeffs,
+                 ssdf_data, !(flags & FLAG_NO_VISIBILITY));
+#ifdef TP_GAUSSIAN_POINTS
+        int4 ndf = (int4)(0);
+#else
+        int4 ndf = ndf_info[OBJ_MAT(px.ob)];
+#endif
         __global const int *f = tp_faces + 3 * (to.y + tri);
         int vert[3] = {to.x + f[0], to.x + f[1], to.x + f[2]};
         float2 bc = gbary[gid];
         float bt[3] = {1.0f - bc.x - bc.y, bc.x, bc.y};
-        float3 x = gpos[gid].xyz;
         int env_spec = !(flags & FLAG_NO_ENV_SPECULAR);
+        int exact_pts = ndf.w && env_spec;
+        if (exact_pts)
+            rs += points_exact_specular(pyr_pts, n_pts, px.m, tables, ndf, px.ks, px.op, px.qi,
+                                        T, B, N, &vis, env_scale);
         if (env_spec || n_lights > 0) {
             int iv[3];
             float bv[3];
@@ -67,17 +87,17 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
                     rs += ww * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam,
                                                              pyr_n, pyr_log_ratio, env_mean.xyz,
                                                              pyr_raw, raw_n, m, lam)
-                                            + gamma_points(pyr_pts, n_pts, m, lam));
-                for (int l = 0; l < n_lights; ++l)
-                    rs += ww * tp_light_glossy(m, lam, light_sg(lights[2 * l], lights[2 * l + 1], x));
+                                            + (exact_pts ? (float3)(0.0f)
+                                                         : gamma_points(pyr_pts, n_pts, m, lam)));
+                for (int l = 0; l < n_lights; ++l) {
+                    SG L = light_sg(lights[2 * l], lights[2 * l + 1], x);
+                    if (ndf.w && L.lam >= SHARP_LIGHT) continue;       /* exact below */
+                    rs += ww * tp_light_glossy(m, lam, L);
+                }
             }
         }
         int env_diff = !(flags & FLAG_NO_ENV_DIFFUSE);
         if (env_diff || n_lights > 0) {
-            Vis vis;
-            vis_init(&vis, objs[gobj[gid]], OBJF_MAXD(objf[gobj[gid]]), tri, gbary[gid],
-                     vfaces, coeffs, ssdf_data, !(flags & FLAG_NO_VISIBILITY));
-            float3 N = gnrm[gid].xyz, T = gtan[gid].xyz, B = cross(N, T);
             int split = vis.has && tp_n_suns > 0;
             if (env_diff) {
                 __global const float4 *L = tp_light_sh + (split ? 25 : 0);
@@ -105,13 +125,19 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
             }
             SG cosg = sg_clamped_cosine((float3)(0.0f, 0.0f, 1.0f));
             float4 q0 = (float4)(0.0f, 0.0f, 0.0f, 1.0f);    /* no normal map */
+            float3 rl = (float3)(0.0f);
             for (int l = 0; l < n_lights; ++l) {
                 SG Lw = light_sg(lights[2 * l], lights[2 * l + 1], x);
                 float3 fdir;
-                rd += sg_light_diffuse(sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu), cosg, q0,
-                                       &vis, &fdir);
+                float3 E = sg_light_diffuse(sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu),
+                                            cosg, q0, &vis, &fdir);
+                rl += E;
+                /* a sharp light's glossy part: the exact specular BRDF at its direction */
+                if (ndf.w && Lw.lam >= SHARP_LIGHT && fdir.z > 0.0f)
+                    rs += E * mf_M(px.m, tables, px.ks, px.op, fdir)
+                          * ndf_table(tables, ndf, normalize(px.op + fdir));
             }
-            rd *= tp_fd[gobj[gid]].xyz;
+            rd = (rd + rl) * tp_fd[gobj[gid]].xyz;
         }
     }
     out[gid] = (float4)(rd + rs, 1.0f);

@@ -173,6 +173,32 @@ inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const flo
 #define SHARP_LIGHT 64.0f
 #endif
 
+/* The sharpness given a delta direction (the environment's point set) for the SSDF horizon f̂_h. */
+#define POINT_LAMBDA 2e4f
+
+/* The environment's point set (a sun) through the exact specular BRDF M_o(i) D(h) (the
+ * material's NDF table, ndf = (offset, nt, np, has)) with each point's SSDF horizon
+ * f̂_h(θ_d, POINT_LAMBDA), × env_scale: a delta light needs ρ at one direction, and a lobe's
+ * Gaussian fall-off loses GGX's power-law tail, which a sun 10⁴× the sky lifts above white far
+ * from the highlight. op: the view in the normal-mapped local frame, qi its rotation. */
+inline float3 points_exact_specular(__global const float4 *pts, int n_pts,
+                                    __global const float *m, __global const float *tables,
+                                    int4 ndf, float3 ks, float3 op, float4 qi,
+                                    float3 T, float3 B, float3 N, const Vis *vis,
+                                    float env_scale) {
+    float3 rs = (float3)(0.0f);
+    for (int k = 0; k < n_pts; ++k) {
+        float3 lg = to_local(pts[2 * k].xyz, T, B, N);
+        float3 lp = quat_rotate(qi, lg);
+        if (lp.z <= 0.0f || lg.z <= 0.0f) continue;
+        float3 h = normalize(op + lp);
+        rs += (env_scale * lp.z * ndf_table(tables, ndf, h)
+               * fh_hat(vis_theta(vis, lg), POINT_LAMBDA))
+              * mf_M(m, tables, ks, op, lp) * pts[2 * k + 1].xyz;
+    }
+    return rs;
+}
+
 /* One SG light L (local frame) through the diffuse side of Wang09 eq 39 / 42 with the SSDF
  * visibility, to be multiplied by f_d at *fdir: a light at least SHARP_LIGHT sharp as its limit
  * ∫L · max(0, n′·l) · f̂_h(θ_d(l), λ) (n′ the normal-mapped normal: l′ = qi·l, *fdir = l′), a
