@@ -12,6 +12,8 @@ from sgpipe.errors import BadInput
 from sgpipe.io import read_npz
 
 GAUSSIANS = "gaussians.npz"
+#: key prefix of the unshadowed Gaussians in gaussians.npz (the same compact arrays)
+OPEN = "open_"
 SH_TRANSFER = "sh_transfer.npz"
 GEOMETRY = "geometry.npz"
 REPORT = "report.json"
@@ -30,7 +32,10 @@ def write_object(sink, obj: str, *, packed: dict, cube_resolution: int, gaussian
     octahedral, sigma_code (R, K) uint8 over sigma_range (radians, log-uniform), weights
     (A, K, 3) float16 — rows in vertex-major, view-minor order of the set bits. `sh` (X, 25)
     is the shadowed transfer, `sh_indirect` (X, 25, 3) the interreflected part (RGB: the
-    bounces take the colours of the surfaces met; None: zero, as without transport.indirect)."""
+    bounces take the colours of the surfaces met; None: zero, as without transport.indirect).
+    With transport.sampling: lobe, `packed` also holds the unshadowed Gaussians' arrays under
+    the same names prefixed OPEN, with zero weights (nothing stored) at the vertices whose
+    unshadowed set equals the shadowed one, which `OPEN + "same"` (X,) uint8 marks."""
     sh = np.asarray(sh, np.float32)
     ind = (np.zeros(sh.shape + (3,), np.float32) if sh_indirect is None
            else np.asarray(sh_indirect, np.float32))
@@ -100,9 +105,22 @@ def decode_gaussians(arrays: dict):
     return mu, sigma, w, stored
 
 
-def read_gaussians(folder: str | Path, obj: str):
-    """`decode_gaussians` of one object's gaussians.npz."""
-    return decode_gaussians(read_packed_gaussians(folder, obj))
+def read_gaussians(folder: str | Path, obj: str, *, open_set: bool = False):
+    """`decode_gaussians` of one object's gaussians.npz; `open_set`: the unshadowed set
+    (the `open_` arrays, written with transport.sampling: lobe), None where the file has none."""
+    arrays = read_packed_gaussians(folder, obj)
+    if not open_set:
+        return decode_gaussians(arrays)
+    if f"{OPEN}stored_mask" not in arrays:
+        return None
+    out = decode_gaussians({k[len(OPEN):]: v for k, v in arrays.items()
+                            if k.startswith(OPEN) and k != f"{OPEN}same"})
+    same = np.asarray(arrays[f"{OPEN}same"], bool)
+    if same.any():
+        shadowed = decode_gaussians(arrays)
+        for a, b in zip(out, shadowed):
+            a[same] = b[same]
+    return out
 
 
 def read_sh_transfer(folder: str | Path, obj: str) -> tuple[np.ndarray, np.ndarray]:
@@ -140,7 +158,7 @@ def read_sh_transfer_rgb(folder: str | Path, obj: str) -> tuple[np.ndarray, np.n
     return full, fd
 
 
-__all__ = ["GAUSSIANS", "SH_TRANSFER", "GEOMETRY", "REPORT", "object_file", "write_object",
+__all__ = ["GAUSSIANS", "OPEN", "SH_TRANSFER", "GEOMETRY", "REPORT", "object_file", "write_object",
            "read_packed_gaussians", "read_sh_transfer", "read_sh_transfer_rgb",
            "read_sh_transfer_parts", "N_VIEWS",
            "oct_decode", "sigma_decode", "unpack_views", "decode_gaussians", "read_gaussians"]

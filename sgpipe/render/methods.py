@@ -95,13 +95,14 @@ SG_PARAMS = """
     __global const int4 *ndf_info"""
 
 #: ... what `transport` (Green06) takes next: per object (first vertex, first face, K, has data),
-#: the transport meshes' faces, the Gaussians, SH transfer vectors (whole, and the interreflected
+#: the transport meshes' faces, the Gaussians (shadowed, and unshadowed), SH transfer vectors (whole, and the interreflected
 #: part alone), diffuse f_d, the light's SH coefficients (whole map, map minus the point set, the
 #: point set), the point set merged into small lights (direction, sharpness; energy), the 92-view
 #: lookup tables (render.transport_data), the accurate Γ_L chain, the local lights, the NDF
 #: tables' records (delta lights' exact BRDF).
 TRANSPORT_PARAMS = """
     __global const int4 *tp_obj, __global const int *tp_faces, __global const float4 *tp_gauss,
+    __global const float4 *tp_gauss_open,
     __global const float *tp_sh, __global const float *tp_sh_ind, __global const float4 *tp_fd,
     __global const float4 *tp_light_sh, const int tp_sh_n,
     __global const float4 *tp_suns, const int tp_n_suns,
@@ -175,8 +176,24 @@ TORAL19_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
     "fit": (),
 }
 
+#: What makes `transport_green06` render Green06 §5 as published, one entry per sgpipe
+#: improvement that `transport`'s kernel has over the paper (its compile-time defines).
+#: `render.transport_green06_adds` names improvements to give back — all of them make it
+#: `transport` (a test checks). The fit is the transport stage's either way (Green06's own:
+#: transport.sampling: cube).
+GREEN06_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
+    # §5: the environment's glossy part is Σ w Γ_L(μ, 1/σ²) of the blended Gaussians
+    # (transport: the BRDF's own lobes at the pixel × the shadowed / unshadowed Gaussians'
+    # ratio under the same light, with transport.sampling: lobe)
+    "ratio": (("TP_NO_RATIO", 1),),
+    # §5: suns and sharp lights through the Gaussians, w·G(c)·E (transport: the exact specular
+    # BRDF at their direction from the NDF table, with the SSDF horizon)
+    "exact_lights": (("TP_GAUSSIAN_POINTS", 1),),
+}
+
 #: Each published variant's switch table, by method name.
-PUBLISHED_SWITCHES = {"sg_wang09": WANG09_SWITCHES, "gmm_toral19": TORAL19_SWITCHES}
+PUBLISHED_SWITCHES = {"sg_wang09": WANG09_SWITCHES, "gmm_toral19": TORAL19_SWITCHES,
+                      "transport_green06": GREEN06_SWITCHES}
 
 #: The Han07 normal-map methods (stable names: the figures build on them).
 NORMALMAP_METHODS = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh")
@@ -206,7 +223,13 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            defines=("MAX_NDF_LOBES",), baseline_shadows=True, needs_ndf_table=True),
     Method("transport", "Green06 per-vertex view-dependent Gaussians + SH diffuse PRT",
            "transport_shade", (PIXEL_PARAMS, TRANSPORT_PARAMS, TAIL_PARAMS),
-           needs_transport=True, needs_ndf_table=True),
+           defines=("MAX_NDF_LOBES",), needs_transport=True, needs_ndf_table=True),
+    # Green06 §5 as published: transport's kernel with every switch of GREEN06_SWITCHES
+    Method("transport_green06", "Green06 §5 as published (the blended Gaussians against the "
+           "whole environment and every light)", "transport_shade",
+           (PIXEL_PARAMS, TRANSPORT_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",),
+           needs_transport=True, needs_ndf_table=True,
+           fixed_defines=tuple(d for ds in GREEN06_SWITCHES.values() for d in ds)),
     Method("vmf", "Han07 vMF-filtered normal map (Algorithm 2, eq 20–21 lights, eq 24–26 "
            "environment)", "vmf_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS),
            needs_normalmap=True),

@@ -124,6 +124,7 @@ class Renderer:
                  env_scale: float = 1.0, nv: int | None = None, fh_mode: str = "table",
                  gmm_taps: int = 16, gmm_carry: str = "warp", gmm_points: bool = True,
                  sg_wang09_adds: tuple[str, ...] = (), gmm_toral19_adds: tuple[str, ...] = (),
+                 transport_green06_adds: tuple[str, ...] = (),
                  materials_toral19: MaterialTable | None = None):
         self.ctx, self.queue = opencl.get_context()
         self.env, self.materials, self.objects = env, materials, list(objects)
@@ -132,6 +133,7 @@ class Renderer:
         self.fh_mode = fh_mode
         self.sg_wang09_adds = tuple(sg_wang09_adds)
         self.gmm_toral19_adds = tuple(gmm_toral19_adds)
+        self.transport_green06_adds = tuple(transport_green06_adds)
         # `gmm_toral19`'s material table (its published per-view fit); None: `materials`'
         self.materials_toral19 = materials_toral19
         self._bindings: dict[str, dict] = {}
@@ -254,8 +256,8 @@ class Renderer:
 
     def _given_back(self, method: str) -> set[str]:
         """The defines of a published variant's switches that the config gives back."""
-        adds = {"sg_wang09": self.sg_wang09_adds,
-                "gmm_toral19": self.gmm_toral19_adds}.get(method, ())
+        adds = {"sg_wang09": self.sg_wang09_adds, "gmm_toral19": self.gmm_toral19_adds,
+                "transport_green06": self.transport_green06_adds}.get(method, ())
         return {k for name in adds for k, _ in PUBLISHED_SWITCHES[method][name]}
 
     def method_materials(self, method: str) -> MaterialTable:

@@ -121,7 +121,8 @@ def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None,
                      points=None) -> dict:
     """Kernel arrays for per-object data `objects` (None, or dict with mu, sigma, w, transfer
     (X, 25, 3) per colour channel — or (X, 25), the same in every channel —, optionally
-    indirect (X, 25, 3), the interreflected part of transfer, diffuse_rgb (3,), faces (F, 3))
+    indirect (X, 25, 3), the interreflected part of transfer, open (the unshadowed mu, sigma,
+    w: tp_gauss_open, flag 4 of tp_obj.w), diffuse_rgb (3,), faces (F, 3))
     and SH light coefficients (n, 3) of the map, turned by `rotation` (3×3 world ← map, or
     None). `points`: the environment's point set (directions (K, 3) in the map's frame,
     energies (K, 3)) that objects with SSDF visibility shade as small lights (merge_points,
@@ -142,7 +143,7 @@ def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None,
         if rotation is not None:
             suns[:, 0, :3] = suns[:, 0, :3] @ np.asarray(rotation, np.float32).T
     light_sh, pts_sh = rotate_sh(light_sh, rotation), rotate_sh(pts_sh, rotation)
-    rows, faces, gauss, sh, ind, fd = [], [], [], [], [], []
+    rows, faces, gauss, gopen, sh, ind, fd = [], [], [], [], [], [], []
     v0 = f0 = 0
     K = max([o["sigma"].shape[2] for o in objects if o is not None] or [1])
     for o in objects:
@@ -153,13 +154,19 @@ def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None,
         X = len(o["transfer"])
         k = o["sigma"].shape[2]
         mu, sigma, w = o["mu"], o["sigma"], o["w"]
+        op = o.get("open")             # (mu, sigma, w) unshadowed, or None (sampling: cube)
+        if op is None:
+            op = (np.zeros_like(mu), np.zeros_like(sigma), np.zeros_like(w))
+        pad = lambda a: np.concatenate([a, np.zeros(a.shape[:2] + (K - k,) + a.shape[3:])], 2)
         if k < K:      # pad to the scene's K with zero-weight Gaussians (skipped by the kernel)
-            pad = lambda a: np.concatenate([a, np.zeros(a.shape[:2] + (K - k,) + a.shape[3:])], 2)
             mu, sigma, w = pad(mu), pad(sigma), pad(w)
+            op = tuple(pad(a) for a in op)
         has_ind = o.get("indirect") is not None
-        rows.append((v0, f0, K, 1 | (2 if has_ind else 0)))   # transport_shade.cl TP_HAS_*
+        flags = 1 | (2 if has_ind else 0) | (4 if o.get("open") is not None else 0)
+        rows.append((v0, f0, K, flags))             # transport_shade.cl TP_HAS_*
         faces.append(np.asarray(o["faces"], np.int32).reshape(-1))
         gauss.append(pack_gaussians(mu, sigma, w))
+        gopen.append(pack_gaussians(*op))
         sh.append(rgb_transfer(o["transfer"]).reshape(-1))
         ind.append(rgb_transfer(o["indirect"] if has_ind else np.zeros((X, SH_COEFFS),
                                                                        np.float32)).reshape(-1))
@@ -177,7 +184,8 @@ def transport_arrays(objects: list, light_sh: np.ndarray, rotation=None,
         L[i, :n_sh, :3] = c[:n_sh]
     vinv, vtri = view_tables()
     return dict(tp_obj=np.asarray(rows, np.int32), tp_faces=cat(faces, np.int32),
-                tp_gauss=cat(gauss, np.float32, 4), tp_sh=cat(sh, np.float32),
+                tp_gauss=cat(gauss, np.float32, 4), tp_gauss_open=cat(gopen, np.float32, 4),
+                tp_sh=cat(sh, np.float32),
                 tp_sh_ind=cat(ind, np.float32), tp_fd=np.asarray(fd, np.float32),
                 tp_light_sh=L.reshape(-1, 4), tp_sh_n=n_sh, tp_suns=suns.reshape(-1, 4),
                 tp_n_suns=n_suns,
@@ -199,6 +207,7 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
     out = []
     for k, spec in enumerate(cfg.scene.objects):
         mu, sigma, w, _ = read_gaussians(folder, spec.name)
+        opened = read_gaussians(folder, spec.name, open_set=True)
         transfer, indirect, fd = read_sh_transfer_parts(folder, spec.name)
         faces = read_npz(folder / object_file(spec.name, GEOMETRY))["faces"]
         ref = ssdf_faces[k]
@@ -209,7 +218,7 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
                            "`visibility:` section)", file=folder / spec.name,
                            key="transport.sphere_subdivisions")
         out.append(dict(mu=mu, sigma=sigma, w=w, transfer=transfer, diffuse_rgb=fd, faces=faces,
-                        indirect=indirect))
+                        indirect=indirect, open=None if opened is None else opened[:3]))
     return out
 
 

@@ -162,20 +162,39 @@ def _write_object(run, cfg, g, mat, results) -> dict:
     mu, sigma = np.zeros((n, 92, K, 3)), np.zeros((n, 92, K))
     w, sh, sh_ind = np.zeros((n, 92, K, 3)), np.zeros((n, 25)), np.zeros((n, 25, 3))
     err, iters, vis = np.zeros(n), np.zeros(n, np.int64), np.zeros(n)
+    lobe = t.sampling == "lobe"
+    if lobe:
+        mu_o, sigma_o, w_o = np.zeros_like(mu), np.zeros_like(sigma), np.zeros_like(w)
     for r in results:
         mu[r.order], sigma[r.order], w[r.order] = r.mu, r.sigma, r.w
+        if lobe:
+            mu_o[r.order], sigma_o[r.order], w_o[r.order] = r.mu_open, r.sigma_open, r.w_open
         sh[r.order], err[r.order], iters[r.order], vis[r.order] = r.sh, r.rel_err, r.iters, \
             r.visible
         sh_ind[r.order] = r.sh_indirect
     lo, hi = np.radians(t.sigma_min_resolved_deg()), np.radians(t.sigma_max_deg)
     packed = compact.encode(mu, sigma, w, lo, hi)
+    if lobe:
+        # the unshadowed set is stored only where it differs (an occluder cuts the vertex's
+        # lobes); elsewhere the reader takes the shadowed set (`open_same`)
+        same = ((mu_o == mu).all(axis=(1, 2, 3)) & (sigma_o == sigma).all(axis=(1, 2))
+                & (w_o == w).all(axis=(1, 2, 3)))
+        w_o = np.where(same[:, None, None, None], 0.0, w_o)
+        packed.update({f"{artifacts.OPEN}{k}": v
+                       for k, v in compact.encode(mu_o, sigma_o, w_o, lo, hi).items()})
+        packed[f"{artifacts.OPEN}same"] = same.astype(np.uint8)
     artifacts.write_object(run, g.name, packed=packed, cube_resolution=t.cube_resolution,
                            gaussians=K, sh=sh, sh_indirect=sh_ind, diffuse_rgb=mat[3],
                            positions=g.positions, normals=g.normals, faces=g.faces)
     nbytes, paper = compact.nbytes(packed), compact.paper_bytes(n, K)
+    open_bytes = compact.nbytes({k: v for k, v in packed.items()
+                                 if k.startswith(artifacts.OPEN)})
     return {
         "vertices": int(n), "compact_bytes": nbytes, "paper_bytes": paper,
         "compact_over_paper": nbytes / paper,
+        # of compact_bytes, the unshadowed Gaussians (sampling: lobe; the vertices an
+        # occluder reaches)
+        "open_bytes": open_bytes,
         "compact_vs_full_rel_err": _compact_error(mu, sigma, w, lo, hi, t),
         "fit_rel_err_mean": float(err.mean()), "fit_rel_err_p95": float(np.percentile(err, 95)),
         "lm_iterations_mean": float(iters.mean()),

@@ -121,6 +121,11 @@ class TransportResult:
     iters: np.ndarray       # (n,)
     visible: np.ndarray     # (n,) fraction of the upper-hemisphere light texels unoccluded
     sh_indirect: np.ndarray = None  # (n, 25, 3) interreflected transfer (zero without indirect)
+    #: with sampling "lobe": the same Gaussians fitted to the unshadowed direct samples (the
+    #: renderer's glossy visibility ratio divides by them); None with "cube"
+    mu_open: np.ndarray = None
+    sigma_open: np.ndarray = None
+    w_open: np.ndarray = None
     fitted: int = 0         # vertices with glossy transport (the others have zero weights)
     transport_s: float = 0.0
     fit_s: float = 0.0
@@ -139,6 +144,9 @@ def run_chunk(task: TransportTask) -> TransportResult:
     res = TransportResult(task.order, np.zeros((n, 92, K, 3)), np.zeros((n, 92, K)),
                           np.zeros((n, 92, K, 3)), np.zeros((n, basis.shape[1])), np.zeros(n),
                           np.zeros(n, np.int64), np.zeros(n), np.zeros((n, basis.shape[1], 3)))
+    if task.sampling == "lobe":
+        res.mu_open, res.sigma_open = np.zeros((n, 92, K, 3)), np.zeros((n, 92, K))
+        res.w_open = np.zeros((n, 92, K, 3))
     ind = task.indirect
     done: dict[int, int] = {}         # global vertex → row of res
     for i in range(n):
@@ -200,9 +208,16 @@ def _fit_lobe_vertex(task: TransportTask, i: int, scene, brdf, views, cube, vis,
     active = views @ nrm > EXTRAPOLATE_COS
     fit_views = raised_views(views, nrm, tan, task.min_cos)
     res.mu[i], res.sigma[i] = views[:, None, :], task.opts.sigma_max
+    res.mu_open[i], res.sigma_open[i] = views[:, None, :], task.opts.sigma_max
     if not brdf.has_specular or not active.any():
         return
     dirs, wgt, q = lobe_samples(brdf, nrm, tan, bit, fit_views, active, task.lobe_samples)
+    # the unshadowed lobe, fitted alike (same samples, same rule): where nothing occludes the
+    # vertex the two sets are equal and the renderer's ratio of the two is exactly 1
+    if not negligible_transport(wgt):
+        res.mu_open[i], res.sigma_open[i], res.w_open[i] = lobe_gaussians(
+            dirs, wgt, views, active, task.opts.sigma_min, task.opts.sigma_max,
+            task.opts.gaussians, nrm)
     wgt = shadow_samples(scene, pos, nrm, dirs, wgt, task.offset)
     d_all, w_all = dirs, wgt
     ind = task.indirect

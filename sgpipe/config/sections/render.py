@@ -6,13 +6,14 @@ from dataclasses import dataclass
 from typing import Literal
 
 from sgpipe.config.schema import InputPath, doc
-from sgpipe.render.methods import (METHOD_NAMES, METHODS, REFERENCE, TORAL19_SWITCHES,
-                                   WANG09_SWITCHES)
+from sgpipe.render.methods import (GREEN06_SWITCHES, METHOD_NAMES, METHODS, REFERENCE,
+                                   TORAL19_SWITCHES, WANG09_SWITCHES)
 
 #: A `render.methods` entry: an OpenCL method of the registry or the Monte Carlo `reference`.
 RenderMethod = Literal[METHOD_NAMES]
 Wang09Improvement = Literal[tuple(WANG09_SWITCHES)]
 Toral19Improvement = Literal[tuple(TORAL19_SWITCHES)]
+Green06Improvement = Literal[tuple(GREEN06_SWITCHES)]
 
 
 @dataclass
@@ -182,6 +183,12 @@ class RenderSection:
         "lobe instead of one lookup), points (render.gmm_points; needs cube_chain), carry "
         "(render.gmm_carry instead of the nearest view's lobes), fit (fit.view_gmm's mixtures "
         "instead of 8 independent lobes per view).", default_factory=list)
+    transport_green06_adds: list[Green06Improvement] = doc(
+        "transport_green06: sgpipe improvements to give back to Green06 §5 as published (all "
+        "of them: `transport`; docs/GREEN06.md): ratio (the environment's glossy part as the "
+        "BRDF's own lobes times the shadowed / unshadowed Gaussians' ratio, with "
+        "transport.sampling: lobe), exact_lights (the exact specular BRDF at suns and sharp "
+        "lights, with the SSDF horizon).", default_factory=list)
     compare_to: str | None = doc("Method whose image is the ground truth for `sgpipe compare`"
                                  " of every other method (usually `reference`); null: none.",
                                  None)

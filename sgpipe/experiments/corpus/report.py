@@ -8,8 +8,8 @@ import math
 from sgpipe.experiments.corpus.measure import noisy
 
 #: column order of the matrix
-ORDER = ("sg", "gmm", "fis", "transport", "vmf", "nm_sh", "normals_mip", "toksvig",
-         "engine_bake")
+ORDER = ("sg", "gmm", "fis", "transport", "transport_green06", "vmf", "nm_sh", "normals_mip",
+         "toksvig", "engine_bake")
 
 
 def _methods(rows) -> list[str]:

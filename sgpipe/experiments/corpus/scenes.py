@@ -301,7 +301,7 @@ def scenes(seed: int, work: Path, *, size: int = 96, spp: int = 256,
         if nmap is not None:
             methods += list(FILTERED)
         elif slot.shape in TRANSPORT_SHAPES:
-            methods.append("transport")
+            methods += ["transport", "transport_green06"]
         cfg = {"name": f"corpus_s{seed}_{slot.key}", "seed": int(seed),
                "scene": {"objects": objs},
                "fit": {"materials": [mat]},
