@@ -74,6 +74,7 @@ figures: setup
 	$(PY) -m sgpipe.experiments.green06 --out $(OUT)/figures/green06 --results docs/results/green06.md
 	$(PY) -m sgpipe.experiments.wang09 --out $(OUT)/figures/wang09 --results docs/results/wang09.md
 	$(PY) -m sgpipe.experiments.toral19 --out $(OUT)/figures/toral19 --results docs/results/toral19.md
+	$(PY) -m sgpipe.experiments.green06_ladder --out $(OUT)/figures/green06_ladder --results docs/results/green06_ladder.md
 
 ## regenerate data_samples/ (deterministic)
 samples: $(STAMP)
