@@ -54,6 +54,12 @@ def _progress(total: int, desc: str):
                              show_pos=True, show_eta=True) if show and total > 1 else None
 
 
+def progress(total: int, desc: str):
+    """The click progress bar the chunk maps show (on a terminal, or SGPIPE_PROGRESS=1), or
+    None; `update(n)` it as work completes, `render_finish()` at the end."""
+    return _progress(total, desc)
+
+
 @contextlib.contextmanager
 def _sigint_ignored():
     """SIGINT ignored while a worker is created: an ignored signal stays ignored across exec,

@@ -15,7 +15,7 @@ from sgpipe.brdf import REGISTRY, BRDFParamError, brdf_from_spec
 from sgpipe.config.schema import to_plain
 from sgpipe.errors import BadInput
 from sgpipe.io.mesh import load_scene, object_files
-from sgpipe.parallel import map_chunks
+from sgpipe.parallel import map_chunks, progress
 from sgpipe.stages.base import StageRun, log
 from sgpipe.transport import compact
 from sgpipe.transport.chunk import (IndirectOptions, TransportTask, flood_order, run_chunk,
@@ -132,9 +132,11 @@ def _run(cfg, run: StageRun, tmp: Path, geoms, materials) -> None:
         + (f", indirect ({t.indirect_bounces} bounces, {t.indirect_paths} paths per view, "
            f"{t.indirect_transfer_paths} per occluded texel)" if t.indirect else ""))
     t0 = time.perf_counter()
-    results = map_chunks(run_chunk, tasks, workers=cfg.workers or None,
-                         desc="transport: sampling" + (" + indirect paths" if t.indirect
-                                                       else "") + " + fitting")
+    desc = "transport: sampling" + (" + indirect paths" if t.indirect else "") + " + fitting"
+    if t.flood_fill == "mesh" and t.sampling == "cube":
+        results = _mesh_flood_fill(tasks, owner, desc)
+    else:
+        results = map_chunks(run_chunk, tasks, workers=cfg.workers or None, desc=desc)
     wall = time.perf_counter() - t0
     cpu = sum(r.cpu_s for r in results)
     # Gaussians of vertices that have glossy transport (diffuse-only vertices are skipped)
@@ -154,6 +156,28 @@ def _run(cfg, run: StageRun, tmp: Path, geoms, materials) -> None:
             f"{', '.join(parts) or 'no fitted vertex'}")
     run.report.update(vertices=n_vert, gaussians_fitted=fitted, objects=objects)
     run.write_json(artifacts.REPORT, {"objects": objects})
+
+
+def _mesh_flood_fill(tasks, owner, desc: str) -> list:
+    """transport.flood_fill: mesh — the chunks of each object one after another, each given
+    the fits of its vertices' neighbours that earlier chunks fitted (`TransportTask.prior`), so
+    the flood fill runs over the whole mesh as Green06 §4.2 has it."""
+    results, fitted = [], {}
+    bar = progress(len(tasks), desc + " (one flood fill per mesh)")
+    for task, k in zip(tasks, owner):
+        fits = fitted.setdefault(k, {})
+        want = {int(u) for nb in task.neighbours for u in nb} - set(map(int, task.order))
+        task.prior = {u: fits[u] for u in sorted(want) if u in fits}
+        r = run_chunk(task)
+        for row, v in enumerate(r.order):
+            if np.any(r.w[row] != 0):        # fitted (not a vertex without glossy transport)
+                fits[int(v)] = (r.mu[row], r.sigma[row], r.w[row])
+        results.append(r)
+        if bar:
+            bar.update(1)
+    if bar:
+        bar.render_finish()
+    return results
 
 
 def _write_object(run, cfg, g, mat, results) -> dict:

@@ -2,16 +2,17 @@
 order. Per vertex: trace visibility over the light cube and its SH transfer; then with
 `sampling: cube` sample the direct glossy transport for the 92 views at the cube's texels
 (eq 2) and fit the Gaussians (eq 6) — starting from an already fitted neighbour in the same
-chunk and holding the fitted neighbours' means in the spatial term (Green06 §4.2's flood
-fill) —, with `sampling: lobe` sample each view's specular lobe and set its Gaussians from
+chunk (or, with `TransportTask.prior`, fitted by an earlier chunk) and holding the fitted
+neighbours' means in the spatial term (Green06 §4.2's flood fill) —, with `sampling: lobe` sample each view's specular lobe and set its Gaussians from
 those samples (`lobe_fit`). The transport itself is never stored: it lives for one vertex.
 With `TransportTask.indirect` the indirect glossy part T^IG (eq 5) is added to T before the fit
 and the interreflected SH transfer is kept beside the shadowed one; each vertex's random
 numbers come from its own generator seeded by (config seed, object, vertex), so no result
 depends on which chunk or worker a vertex fell into.
 
-Chunks depend only on their inputs (never on other chunks or the worker count), so the
-artifacts are the same bytes for any number of workers.
+Chunks depend only on their inputs (never on the worker count), so the artifacts are the same
+bytes for any number of workers; with transport.flood_fill "mesh" a chunk's inputs include
+the earlier chunks' fits (`prior`), and the stage runs them in order.
 """
 
 from __future__ import annotations
@@ -91,6 +92,9 @@ class TransportTask:
     sampling: str = "lobe"
     #: lobe samples per view with sampling "lobe"
     lobe_samples: int = 128
+    #: transport.flood_fill "mesh": the fits (mu, sigma, w) of this chunk's vertices'
+    #: neighbours that earlier chunks fitted, by global vertex
+    prior: "dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] | None" = None
 
 
 @dataclass
@@ -179,13 +183,14 @@ def run_chunk(task: TransportTask) -> TransportResult:
             res.fit_s += time.perf_counter() - t1
             res.transport_s += t1 - t0
             continue
-        rows = [done[u] for u in task.neighbours[i] if u in done][:MAX_SPATIAL_NEIGHBOURS]
-        nb_means = res.mu[rows] if rows and K > 1 else None
+        prior = task.prior or {}
+        fits = [(res.mu[done[u]], res.sigma[done[u]], res.w[done[u]]) if u in done
+                else prior[u] for u in task.neighbours[i]
+                if u in done or u in prior][:MAX_SPATIAL_NEIGHBOURS]
+        nb_means = np.stack([f[0] for f in fits]) if fits and K > 1 else None
         prob = VertexProblem(T, active, cube.dirs, cube.omega, task.opts, nrm, nb_means)
-        if rows:
-            r0 = rows[0]
-            start = init_from_neighbour(prob, VertexFit(res.mu[r0], res.sigma[r0], res.w[r0],
-                                                        0.0, 0.0, 0))
+        if fits:
+            start = init_from_neighbour(prob, VertexFit(*fits[0], 0.0, 0.0, 0))
         else:
             start = init_params(prob)
         fit = fit_vertex(prob, start)

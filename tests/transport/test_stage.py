@@ -89,6 +89,26 @@ def test_artifacts_report_and_determinism(tmp_path, sampling):
     assert run.skipped
 
 
+def test_mesh_flood_fill_is_one_chunk_over_the_whole_mesh(tmp_path):
+    """transport.flood_fill: mesh with 4-vertex chunks fits every vertex as one chunk holding
+    the whole mesh does (Green06 §4.2's single flood fill: the same start and spatial
+    neighbours, hence the same bytes), with 2 Gaussians (the spatial term on) and `cube`; the
+    per-chunk flood fill gives other fits."""
+    def gaussians(name, chunk, fill):
+        cfg = load_config(make(tmp_path, sampling="cube"),
+                          [f"transport.chunk_vertices={chunk}",
+                           f"transport.flood_fill={fill}", "transport.gaussians=2"])
+        out = tmp_path / name
+        stage.run(cfg, out)
+        return {o: (out / "transport" / o / contract.GAUSSIANS).read_bytes()
+                for o in ("ball", "floor")}
+    mesh = gaussians("mesh", 4, "mesh")
+    whole = gaussians("whole", 4096, "chunk")
+    chunked = gaussians("chunked", 4, "chunk")
+    assert mesh == whole
+    assert mesh["floor"] != chunked["floor"]
+
+
 def test_chunk_fits_sampled_transport_of_a_floor(tmp_path):
     """A chunk in flood-fill order on an open floor: every vertex's Gaussians against its
     transport, re-sampled independently here, over the views not grazing the floor."""

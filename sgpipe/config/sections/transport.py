@@ -85,11 +85,18 @@ class TransportSection:
     ray_offset: float = doc("Self-intersection offset along the normal, as a fraction of the "
                             "scene's bounding-box diagonal (as `visibility.ray_offset`).", 1e-4,
                             gt=0, lt=0.1)
-    chunk_vertices: int = doc("Vertices per parallel work item; the flood fill (fit started "
-                              "from a fitted neighbour) runs within a chunk, so the chunking, "
-                              "never the worker count, decides the result. At most 4096: "
+    chunk_vertices: int = doc("Vertices per parallel work item; with `flood_fill: chunk` "
+                              "the flood fill (fit started from a fitted neighbour) runs "
+                              "within a chunk, so the chunking, never the worker count, "
+                              "decides the result. At most 4096: "
                               "a chunk holds its vertices' light-cube visibility (6·res² "
                               "texels each) and 92-view fits.", 256, ge=1, le=4096)
+    flood_fill: Literal["chunk", "mesh"] = doc(
+        "With `sampling: cube`, which fitted neighbours seed a vertex's eq 6 fit and its "
+        "spatial term. `chunk`: those of its own chunk (`chunk_vertices`; chunks run in "
+        "parallel). `mesh`: Green06 §4.2 as published, one flood fill over the whole mesh — "
+        "any neighbour fitted before it, in whichever chunk — so the chunks run one after "
+        "another. `sampling: lobe` fits every vertex from its own samples.", "chunk")
     sphere_subdivisions: int = doc("Icosphere subdivisions for `sphere_radius` objects.", 3,
                                    ge=0, le=7)
     report_vertices: int = doc("Vertices per object whose compact-vs-full error is measured "
