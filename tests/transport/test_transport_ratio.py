@@ -158,9 +158,9 @@ def test_green06_with_every_add_is_transport(run):
 
 def test_ratio_beats_the_published_rendering(run):
     """Surface display PSNR against the 2×2-supersampled 128-spp reference (exposure −2):
-    `transport` at least 1 dB over `transport_green06` on this scene (measured 39.74 and
+    `transport` at least 1.5 dB over `transport_green06` on this scene (measured 40.21 and
     38.21 dB)."""
     _, out = run
     comp = json.loads((out / "render" / "manifest.json").read_text())["report"]["compare"]
     got = {m: comp[m]["surface"]["display_psnr_db"] for m in ("transport", "transport_green06")}
-    assert got["transport"] >= got["transport_green06"] + 1.0, got
+    assert got["transport"] >= got["transport_green06"] + 1.5, got

@@ -154,6 +154,14 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
                 float3 R = (float3)(den.x > 0.0f ? (S.x + floor_l.x * S0.x) / den.x : 0.0f,
                                     den.y > 0.0f ? (S.y + floor_l.y * S0.y) / den.y : 0.0f,
                                     den.z > 0.0f ? (S.z + floor_l.z * S0.z) / den.z : 0.0f);
+                /* ... at most the visible share of the lobes' integral: one Gaussian fitted
+                 * to a clipped lobe sits in the visible part, and where that part sees brighter
+                 * light than the hidden one (a lamp above a bowl's rim) the light-weighted
+                 * ratio overshoots */
+                float3 Ri = (float3)(U0.x > 0.0f ? S0.x / U0.x : 0.0f,
+                                     U0.y > 0.0f ? S0.y / U0.y : 0.0f,
+                                     U0.z > 0.0f ? S0.z / U0.z : 0.0f);
+                R = fmin(R, Ri);
                 /* occlusion only removes light; indirect transport (T^IG) can add some */
                 R = clamp(R, 0.0f, (to.w & TP_HAS_INDIRECT) ? TP_RATIO_MAX_INDIRECT : 1.0f);
                 Vis open;
