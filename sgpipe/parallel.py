@@ -48,16 +48,12 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def _progress(total: int, desc: str):
-    show = sys.stderr.isatty() or os.environ.get("SGPIPE_PROGRESS") == "1"
-    return click.progressbar(length=total, label=desc, file=sys.stderr,
-                             show_pos=True, show_eta=True) if show and total > 1 else None
-
-
 def progress(total: int, desc: str):
     """The click progress bar the chunk maps show (on a terminal, or SGPIPE_PROGRESS=1), or
     None; `update(n)` it as work completes, `render_finish()` at the end."""
-    return _progress(total, desc)
+    show = sys.stderr.isatty() or os.environ.get("SGPIPE_PROGRESS") == "1"
+    return click.progressbar(length=total, label=desc, file=sys.stderr,
+                             show_pos=True, show_eta=True) if show and total > 1 else None
 
 
 @contextlib.contextmanager
@@ -149,7 +145,7 @@ def map_chunks(fn: Callable[[Any], Any], items: Sequence[Any] | Iterable[Any], *
             return map_chunks(fn, items, desc=desc)
     n = default_workers() if not workers else int(workers)
     n = max(1, min(n, len(items)))
-    bar = _progress(len(items), desc)
+    bar = progress(len(items), desc)
     results: list[Any] = []
     try:
         if _clients and items:

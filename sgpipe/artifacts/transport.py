@@ -105,22 +105,27 @@ def decode_gaussians(arrays: dict):
     return mu, sigma, w, stored
 
 
-def read_gaussians(folder: str | Path, obj: str, *, open_set: bool = False):
-    """`decode_gaussians` of one object's gaussians.npz; `open_set`: the unshadowed set
-    (the `open_` arrays, written with transport.sampling: lobe), None where the file has none."""
-    arrays = read_packed_gaussians(folder, obj)
-    if not open_set:
-        return decode_gaussians(arrays)
+def decode_open_gaussians(arrays: dict, shadowed=None):
+    """The unshadowed set of gaussians.npz's compact arrays (the `open_` arrays, written with
+    transport.sampling: lobe) as `decode_gaussians` gives it, the shadowed set's rows at the
+    vertices `open_same` marks; None where the file has none. `shadowed`: the file's
+    `decode_gaussians` when the caller has it already."""
     if f"{OPEN}stored_mask" not in arrays:
         return None
     out = decode_gaussians({k[len(OPEN):]: v for k, v in arrays.items()
                             if k.startswith(OPEN) and k != f"{OPEN}same"})
     same = np.asarray(arrays[f"{OPEN}same"], bool)
     if same.any():
-        shadowed = decode_gaussians(arrays)
-        for a, b in zip(out, shadowed):
+        for a, b in zip(out, shadowed or decode_gaussians(arrays)):
             a[same] = b[same]
     return out
+
+
+def read_gaussians(folder: str | Path, obj: str, *, open_set: bool = False):
+    """`decode_gaussians` of one object's gaussians.npz; `open_set`: its
+    `decode_open_gaussians` instead."""
+    arrays = read_packed_gaussians(folder, obj)
+    return decode_open_gaussians(arrays) if open_set else decode_gaussians(arrays)
 
 
 def read_sh_transfer(folder: str | Path, obj: str) -> tuple[np.ndarray, np.ndarray]:
@@ -158,7 +163,9 @@ def read_sh_transfer_rgb(folder: str | Path, obj: str) -> tuple[np.ndarray, np.n
     return full, fd
 
 
-__all__ = ["GAUSSIANS", "OPEN", "SH_TRANSFER", "GEOMETRY", "REPORT", "object_file", "write_object",
+__all__ = ["GAUSSIANS", "OPEN", "SH_TRANSFER", "GEOMETRY", "REPORT", "object_file",
+           "write_object",
            "read_packed_gaussians", "read_sh_transfer", "read_sh_transfer_rgb",
            "read_sh_transfer_parts", "N_VIEWS",
-           "oct_decode", "sigma_decode", "unpack_views", "decode_gaussians", "read_gaussians"]
+           "oct_decode", "sigma_decode", "unpack_views", "decode_gaussians",
+           "decode_open_gaussians", "read_gaussians"]

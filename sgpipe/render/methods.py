@@ -95,11 +95,11 @@ SG_PARAMS = """
     __global const int4 *ndf_info"""
 
 #: ... what `transport` (Green06) takes next: per object (first vertex, first face, K, has data),
-#: the transport meshes' faces, the Gaussians (shadowed, and unshadowed), SH transfer vectors (whole, and the interreflected
-#: part alone), diffuse f_d, the light's SH coefficients (whole map, map minus the point set, the
-#: point set), the point set merged into small lights (direction, sharpness; energy), the 92-view
-#: lookup tables (render.transport_data), the accurate Γ_L chain, the local lights, the NDF
-#: tables' records (delta lights' exact BRDF).
+#: the transport meshes' faces, the Gaussians (shadowed, and unshadowed), SH transfer vectors
+#: (whole, and the interreflected part alone), diffuse f_d, the light's SH coefficients (whole
+#: map, map minus the point set, the point set), the point set merged into small lights
+#: (direction, sharpness; energy), the 92-view lookup tables (render.transport_data), the
+#: accurate Γ_L chain, the local lights, the NDF tables' records (delta lights' exact BRDF).
 TRANSPORT_PARAMS = """
     __global const int4 *tp_obj, __global const int *tp_faces, __global const float4 *tp_gauss,
     __global const float4 *tp_gauss_open,

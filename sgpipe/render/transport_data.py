@@ -1,5 +1,5 @@
 """Device buffers of the `transport` method (Green06 §5): per object its fitted Gaussians
-(gaussians.npz through `sgpipe.artifacts.transport.read_gaussians`), SH transfer vectors and
+(gaussians.npz through `sgpipe.artifacts.transport`'s decoders), SH transfer vectors and
 diffuse f_d from `<out>/transport/<object>/`, the environment's SH light coefficients
 (`<out>/envmap/light_sh.npz`, turned by render.environment_rotation: `rotate_sh`) and the
 92-view tables of `views.nearest_views`, keyed by the kernel's parameter names
@@ -196,7 +196,8 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
     """Per scene object its transport data (dicts of `transport_arrays`) read from
     `<out>/transport/`. The kernel indexes them with the frame's SSDF-mesh triangles, so each
     object's transport mesh must be its visibility mesh (`ssdf_faces`, per object or None)."""
-    from sgpipe.artifacts.transport import (GEOMETRY, object_file, read_gaussians,
+    from sgpipe.artifacts.transport import (GEOMETRY, decode_gaussians, decode_open_gaussians,
+                                            object_file, read_packed_gaussians,
                                             read_sh_transfer_parts)
     from sgpipe.io import read_npz
     folder = Path(out_dir) / "transport"
@@ -206,8 +207,10 @@ def load_transport_objects(cfg, out_dir: str | Path, ssdf_faces: list) -> list:
                        key="transport")
     out = []
     for k, spec in enumerate(cfg.scene.objects):
-        mu, sigma, w, _ = read_gaussians(folder, spec.name)
-        opened = read_gaussians(folder, spec.name, open_set=True)
+        packed = read_packed_gaussians(folder, spec.name)
+        shadowed = decode_gaussians(packed)
+        mu, sigma, w, _ = shadowed
+        opened = decode_open_gaussians(packed, shadowed)
         transfer, indirect, fd = read_sh_transfer_parts(folder, spec.name)
         faces = read_npz(folder / object_file(spec.name, GEOMETRY))["faces"]
         ref = ssdf_faces[k]

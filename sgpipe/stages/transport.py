@@ -169,9 +169,8 @@ def _mesh_flood_fill(tasks, owner, desc: str) -> list:
         want = {int(u) for nb in task.neighbours for u in nb} - set(map(int, task.order))
         task.prior = {u: fits[u] for u in sorted(want) if u in fits}
         r = run_chunk(task)
-        for row, v in enumerate(r.order):
-            if np.any(r.w[row] != 0):        # fitted (not a vertex without glossy transport)
-                fits[int(v)] = (r.mu[row], r.sigma[row], r.w[row])
+        for row in np.flatnonzero(r.fitted_rows):
+            fits[int(r.order[row])] = (r.mu[row], r.sigma[row], r.w[row])
         results.append(r)
         if bar:
             bar.update(1)

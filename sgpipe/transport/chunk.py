@@ -3,9 +3,9 @@ order. Per vertex: trace visibility over the light cube and its SH transfer; the
 `sampling: cube` sample the direct glossy transport for the 92 views at the cube's texels
 (eq 2) and fit the Gaussians (eq 6) — starting from an already fitted neighbour in the same
 chunk (or, with `TransportTask.prior`, fitted by an earlier chunk) and holding the fitted
-neighbours' means in the spatial term (Green06 §4.2's flood fill) —, with `sampling: lobe` sample each view's specular lobe and set its Gaussians from
-those samples (`lobe_fit`). The transport itself is never stored: it lives for one vertex.
-With `TransportTask.indirect` the indirect glossy part T^IG (eq 5) is added to T before the fit
+neighbours' means in the spatial term (Green06 §4.2's flood fill) —, with `sampling: lobe`
+sample each view's specular lobe and set its Gaussians from those samples (`lobe_fit`). The
+transport itself is never stored: it lives for one vertex. With `TransportTask.indirect` the indirect glossy part T^IG (eq 5) is added to T before the fit
 and the interreflected SH transfer is kept beside the shadowed one; each vertex's random
 numbers come from its own generator seeded by (config seed, object, vertex), so no result
 depends on which chunk or worker a vertex fell into.
@@ -130,10 +130,17 @@ class TransportResult:
     mu_open: np.ndarray = None
     sigma_open: np.ndarray = None
     w_open: np.ndarray = None
-    fitted: int = 0         # vertices with glossy transport (the others have zero weights)
+    #: (n,) bool: rows with glossy transport that were fitted (the others have zero weights;
+    #: they seed no neighbour)
+    fitted_rows: np.ndarray = None
     transport_s: float = 0.0
     fit_s: float = 0.0
     cpu_s: float = 0.0
+
+    @property
+    def fitted(self) -> int:
+        """Vertices with glossy transport."""
+        return int(self.fitted_rows.sum())
 
 
 def run_chunk(task: TransportTask) -> TransportResult:
@@ -147,7 +154,8 @@ def run_chunk(task: TransportTask) -> TransportResult:
     n, K = len(task.order), task.opts.gaussians
     res = TransportResult(task.order, np.zeros((n, 92, K, 3)), np.zeros((n, 92, K)),
                           np.zeros((n, 92, K, 3)), np.zeros((n, basis.shape[1])), np.zeros(n),
-                          np.zeros(n, np.int64), np.zeros(n), np.zeros((n, basis.shape[1], 3)))
+                          np.zeros(n, np.int64), np.zeros(n), np.zeros((n, basis.shape[1], 3)),
+                          fitted_rows=np.zeros(n, bool))
     if task.sampling == "lobe":
         res.mu_open, res.sigma_open = np.zeros((n, 92, K, 3)), np.zeros((n, 92, K))
         res.w_open = np.zeros((n, 92, K, 3))
@@ -194,7 +202,7 @@ def run_chunk(task: TransportTask) -> TransportResult:
         else:
             start = init_params(prob)
         fit = fit_vertex(prob, start)
-        res.fitted += 1
+        res.fitted_rows[i] = True
         res.mu[i], res.sigma[i], res.w[i] = fit.mu, fit.sigma, fit.w
         res.rel_err[i], res.iters[i] = fit.rel_err, fit.iters
         done[int(task.order[i])] = i
@@ -248,7 +256,7 @@ def _fit_lobe_vertex(task: TransportTask, i: int, scene, brdf, views, cube, vis,
     full = active & (views @ nrm > task.min_cos)
     above = full[active]
     res.rel_err[i] = sample_error(dirs[above], wgt[above], q[above], mu, sig, w, full)
-    res.fitted += 1
+    res.fitted_rows[i] = True
 
 
 __all__ = ["vertex_adjacency", "flood_order", "TransportTask", "IndirectOptions",

@@ -58,7 +58,7 @@ __kernel void sg_shade(SG_SHADE_ARGS)
         if (L.lam < SHARP_LIGHT) continue;
         if (k < SHARP_CACHE) e_sharp[k] = E;
         if (ndf.w && lp.z > 0.0f)
-            rs += E * mf_M(m, tables, ks, op, lp) * ndf_table(tables, ndf, normalize(op + lp));
+            rs += sharp_light_specular(E, m, tables, ndf, ks, op, lp);
     }
     /* The point set (a sun) with the exact BRDF where the material has its NDF table
      * (shading.h points_exact_specular). */

@@ -213,8 +213,7 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
                 rl += E;
                 /* a sharp light's glossy part: the exact specular BRDF at its direction */
                 if (ndf.w && Lw.lam >= SHARP_LIGHT && fdir.z > 0.0f)
-                    rs += E * mf_M(px.m, tables, px.ks, px.op, fdir)
-                          * ndf_table(tables, ndf, normalize(px.op + fdir));
+                    rs += sharp_light_specular(E, px.m, tables, ndf, px.ks, px.op, fdir);
             }
             rd = (rd + rl) * tp_fd[gobj[gid]].xyz;
         }

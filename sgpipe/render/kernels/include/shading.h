@@ -199,6 +199,14 @@ inline float3 points_exact_specular(__global const float4 *pts, int n_pts,
     return rs;
 }
 
+/* A sharp light's specular part with the exact BRDF: E · M_o(l) D(h) (the material's NDF
+ * table), E its shadowed irradiance (sg_light_diffuse), o and l in the normal-mapped frame. */
+inline float3 sharp_light_specular(float3 E, __global const float *m,
+                                   __global const float *tables, int4 ndf, float3 ks, float3 o,
+                                   float3 l) {
+    return E * mf_M(m, tables, ks, o, l) * ndf_table(tables, ndf, normalize(o + l));
+}
+
 /* One SG light L (local frame) through the diffuse side of Wang09 eq 39 / 42 with the SSDF
  * visibility, to be multiplied by f_d at *fdir: a light at least SHARP_LIGHT sharp as its limit
  * ∫L · max(0, n′·l) · f̂_h(θ_d(l), λ) (n′ the normal-mapped normal: l′ = qi·l, *fdir = l′), a
