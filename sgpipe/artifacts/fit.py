@@ -20,6 +20,7 @@ MICROFACET = "microfacet.npz"
 MICROFACET_JSON = "microfacet.json"     # the same values with the kinds' names
 NDF_SG = "ndf_sg.npz"
 NDF_ASG = "ndf_asg.npz"                 # only with fit.ndf_sg.anisotropic: asg, anisotropic NDFs
+NDF_SG_ROUGH = "ndf_sg_rough.npz"       # only for isotropic gltf_pbr: lobes per roughness
 VIEW_GMM = "view_gmm.npz"
 VIEW_GMM_TEXTURE = "view_gmm.exr"
 #: Töral19's mixtures as published (`gmm_toral19`): 8 lobes, independent views, specular part
@@ -37,6 +38,8 @@ f32, i32 = np.float32, np.int32
 NDF_SG_ARRAYS = {"axis": f32, "sharpness": f32, "amplitude": f32, "rel_l2": f32, "method": None}
 NDF_ASG_ARRAYS = {"z": f32, "x": f32, "sharpness_x": f32, "sharpness_y": f32, "amplitude": f32,
                   "rel_l2": f32, "method": None}
+NDF_SG_ROUGH_ARRAYS = {"alpha": f32, "sharpness": f32, "amplitude": f32, "rel_l2": f32,
+                       "mid_rel_l2": f32, "mid_direct_rel_l2": f32}
 VIEW_GMM_ARRAYS = {"view_theta": f32, "view_phi": f32, "view_dirs": f32, "alpha": f32,
                    "kappa": f32, "mu": f32, "mu_theta": f32, "mu_phi": f32, "albedo": f32,
                    "rel_l2": f32, "includes_diffuse": i32, "coherent": i32}
@@ -86,6 +89,14 @@ def write_ndf_asg(sink, material: str, arrays: dict) -> None:
     """`ndf_asg.npz`: z (L, 3), x (L, 3), sharpness_x (L,), sharpness_y (L,), amplitude (L,),
     rel_l2, method — D(h) ≈ Σ_l c_l max(h·z_l, 0) e^{−λ_l (h·x_l)² − μ_l (h·y_l)²} (Xu13 eq 4)."""
     sink.write_npz(material_file(material, NDF_ASG), cast(arrays, NDF_ASG_ARRAYS, NDF_ASG))
+
+
+def write_ndf_sg_rough(sink, material: str, arrays: dict) -> None:
+    """`ndf_sg_rough.npz`: the NDF's SG lobes about +z per roughness, α (R,) uniform in ln α,
+    sharpness (R, K), amplitude (R, K), each entry's rel_l2 (R,), and the error of the lobes
+    interpolated at each cell's mid α (mid_rel_l2) beside a direct fit there (R − 1,)."""
+    sink.write_npz(material_file(material, NDF_SG_ROUGH),
+                   cast(arrays, NDF_SG_ROUGH_ARRAYS, NDF_SG_ROUGH))
 
 
 def write_tabulated(sink, material: str, arrays: dict) -> None:
@@ -182,6 +193,34 @@ def read_ndf_sg(folder: str | Path, material: str) -> NdfLobes:
     lam = shaped(z["sharpness"], (-1,), "sharpness", path, key)
     return NdfLobes(axis=shaped(z["axis"], (len(lam), 3), "axis", path, key), sharpness=lam,
                     amplitude=shaped(z["amplitude"], (len(lam),), "amplitude", path, key))
+
+
+@dataclass
+class RoughLobes:
+    """D_α(h) ≈ Σ_k amplitude[i, k] e^{sharpness[i, k] (h_z − 1)} at α = alpha[i]."""
+
+    alpha: np.ndarray                   # (R,) uniform in ln α
+    sharpness: np.ndarray               # (R, K)
+    amplitude: np.ndarray               # (R, K)
+
+
+def read_ndf_sg_rough(folder: str | Path, material: str) -> RoughLobes | None:
+    """`ndf_sg_rough.npz` of one material, or None where the fit wrote none."""
+    path = Path(folder) / NDF_SG_ROUGH
+    if not path.is_file():
+        return None
+    key = _key(material)
+    z = read_npz(path, key=key, required=("alpha", "sharpness", "amplitude"))
+    alpha = shaped(z["alpha"], (-1,), "alpha", path, key)
+    lam = z["sharpness"]
+    if lam.ndim != 2 or len(alpha) < 2 or lam.shape[0] != len(alpha):
+        raise BadInput(f"sharpness has shape {lam.shape}, expected ({len(alpha)}, K), K ≥ 1 "
+                       "and at least 2 entries", file=path, key=key)
+    a = np.asarray(alpha, float)
+    if not (np.all(a > 0) and np.all(np.diff(a) > 0)):
+        raise BadInput("alpha is not positive and increasing", file=path, key=key)
+    return RoughLobes(alpha=alpha, sharpness=lam,
+                      amplitude=shaped(z["amplitude"], lam.shape, "amplitude", path, key))
 
 
 @dataclass

@@ -79,8 +79,8 @@ def expand_gltf(cfg) -> None:
                 if m.textures:
                     print(f"sgpipe: note: {Path(g.file).name}: materials[{m.index}] "
                           f"({m.name}): "
-                          + (f"the reference reads its {' and '.join(read)}, the other "
-                             "methods its factors" if read else "")
+                          + (f"reference, sg and fis read its {' and '.join(read)}, the "
+                             "other methods its factors" if read else "")
                           + ("; " if read and unread else "")
                           + (f"{', '.join(unread)} not read" if unread else ""),
                           file=sys.stderr)

@@ -17,15 +17,30 @@ from sgpipe.artifacts import fit as contract
 from sgpipe.artifacts import scalar
 from sgpipe.core.asg import x_angle
 from sgpipe.errors import BadInput
-from sgpipe.render.records import (AU, AV, DIFFUSE, ETA, F0, FRESNEL, GMM, GMM_FLAGS, GMM_K,
-                                   GMM_NP, GMM_NT, GMM_TMAX, GSCALE, K, KD, KDTEX, KS, KSTEX,
-                                   LOBE0, MAT_STRIDE, NLOBES, SHADOW, STAB)
+from sgpipe.render.records import (ANISO, AU, AV, BASE, BCTEX, DIFFUSE, ETA, F0, FRESNEL, GMM,
+                                   GMM_FLAGS, GMM_K, GMM_NP, GMM_NT, GMM_TMAX, GSCALE, K, KD,
+                                   KDTEX, KS, KSTEX, LOBE0, MAT_STRIDE, METAL, MRTEX, NLOBES,
+                                   ROUGH, SHADOW, STAB, SVA0, SVA1, SVLOB, SVN, SVSTEP)
 
 # The exact-NDF table (fis) is located through a separate int4 per material (offset, nt, np, 0).
 
 #: Exact-NDF table resolution: rows t = sqrt(1 − cos θ_h) ∈ [0, 1], columns φ_h ∈ [0, 2π).
 NDF_TABLE_T = 1024
 NDF_TABLE_P_ANISO = 64
+
+
+@dataclass
+class GltfFactors:
+    """A textured gltf_pbr material as the kernels rebuild it per pixel (shading.h
+    pixel_init): factor × texel for base colour (sRGB-decoded), roughness (G) and metallic (B);
+    texture indices into the renderer's `Textures` (−1: none)."""
+
+    base_color: np.ndarray
+    metallic: float
+    roughness: float
+    anisotropy: float = 0.0
+    base_texture: int = -1
+    metal_rough_texture: int = -1
 
 
 @dataclass
@@ -60,6 +75,8 @@ class Material:
     ndf_table: np.ndarray | None = None  # (nt, np) exact D on the (t, φ) grid (fis)
     kd_texture: int = -1
     ks_texture: int = -1
+    gltf: "GltfFactors | None" = None    # a textured gltf_pbr material (per-pixel parameters)
+    rough_grid: object | None = None     # ndf_sg_rough.npz (artifacts.fit.RoughLobes)
 
     @classmethod
     def lambert(cls, name: str, kd) -> "Material":
@@ -90,6 +107,7 @@ class Material:
             m.gmm_toral19 = contract.read_view_gmm(folder, name, name=contract.VIEW_GMM_TORAL19)
         if asg is not None:
             m.set_asg(asg.z, asg.x, asg.sharpness_x, asg.sharpness_y, asg.amplitude)
+        m.rough_grid = contract.read_ndf_sg_rough(folder, name)
         return m
 
     def set_asg(self, z, x, lam, mu, amp) -> None:
@@ -211,6 +229,25 @@ def pack_materials(materials: list[Material]) -> MaterialTable:
             n_gmm += len(rows)
             max_k = max(max_k, kl)
         r[KDTEX], r[KSTEX] = m.kd_texture, m.ks_texture
+        r[BCTEX] = r[MRTEX] = r[SVLOB] = -1
+        g = m.gltf
+        if g is not None:
+            r[BASE:BASE + 3] = g.base_color
+            r[METAL], r[ROUGH], r[ANISO] = g.metallic, g.roughness, g.anisotropy
+            r[BCTEX], r[MRTEX] = g.base_texture, g.metal_rough_texture
+            grid = m.rough_grid
+            if g.metal_rough_texture >= 0 and grid is not None and g.anisotropy == 0.0:
+                # the roughness grid's lobe sets, each laid out as a material's (its SG
+                # lobes, then the ASG header row with no ASG lobes), entry after entry
+                ne, nk = grid.sharpness.shape
+                r[SVLOB], r[SVN], r[SVSTEP] = n_lobe, ne, nk + 1
+                r[SVA0], r[SVA1] = grid.alpha[0], grid.alpha[-1]
+                for lam_e, mu_e in zip(grid.sharpness, grid.amplitude):
+                    for lam, mu in zip(lam_e, mu_e):
+                        lobes.append([[0, 0, 1, lam], [mu, 0, 0, 0]])
+                    lobes.append([[0, 0, 0, 0], [0, 0, 0, 0]])
+                n_lobe += ne * (nk + 1)
+                max_lobes = max(max_lobes, nk)
     return MaterialTable(
         names=[m.name for m in materials], records=recs,
         lobes=np.asarray(lobes, np.float32).reshape(-1, 2, 4) if lobes else np.zeros((1, 2, 4),

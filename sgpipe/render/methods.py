@@ -15,7 +15,8 @@ from dataclasses import dataclass
 from functools import cached_property
 
 #: Kernel parameters every method takes first: the G-buffer, objects and their SSDF data,
-#: materials, textures (declared as the kernels read them; comma-separated).
+#: materials, textures, per pixel the UV derivatives (scene.footprint) and the scratch records
+#: of textured materials (declared as the kernels read them; comma-separated).
 PIXEL_PARAMS = """
     const int n,
     __global const float4 *gnrm, __global const float4 *gtan, __global const float4 *gview,
@@ -25,7 +26,8 @@ PIXEL_PARAMS = """
     __global const int *vfaces, __global const float *coeffs,
     __global const float *ssdf_data,
     __global const float *mats, __global const float4 *lobes, __global const float *tables,
-    __global const float4 *texels, __global const int4 *texinfo"""
+    __global const float4 *texels, __global const int4 *texinfo, __global const float4 *texaff,
+    __global const float4 *gduv, __global float *pxmat"""
 
 #: ... what the MIP-chain methods (gmm, fis) take next: per-view mixtures / tabulated NDFs,
 #: the box MIP chain, the diffuse SG light fit, the lobe coverage a, the local lights.
@@ -117,11 +119,11 @@ TRANSPORT_PARAMS = """
 
 #: ... what the normal-map methods (`vmf`, `normals_mip`, `toksvig`, `engine_bake`, `nm_sh`;
 #: Han07) take next: the packed pyramids and per-object BRDF records (render.normalmap_data),
-#: per pixel the UV derivatives (scene.footprint), the environment's SH coefficients, the
+#: the environment's SH coefficients, the
 #: diffuse SG light fit, the local lights, then the accurate Γ_L chain (environment specular).
 NM_PARAMS = """
     __global const float4 *nm_data, __global const int4 *nm_levels, __global const int4 *nm_info,
-    __global const float *nm_brdf, __global const float4 *gduv,
+    __global const float *nm_brdf,
     __global const float4 *nm_env_sh, const int n_env_sh,
     __global const float4 *env_sg, const int n_env_sg, const float env_scale,
     __global const float4 *lights, const int n_lights,

@@ -12,7 +12,7 @@ from __future__ import annotations
 from enum import IntEnum, IntFlag
 
 #: Floats per material record (kernels: `mats + material * MAT_STRIDE`).
-MAT_STRIDE = 32
+MAT_STRIDE = 48
 
 
 class MaterialSlot(IntEnum):
@@ -40,6 +40,22 @@ class MaterialSlot(IntEnum):
     GMM_K = 29        # ... lobes per view
     GMM_TMAX = 30     # ... largest view θ
     GMM_FLAGS = 31    # ... 1 coherent, 2 includes diffuse
+    # A textured glTF material (gltf_pbr with base-colour / metallic-roughness textures): its
+    # factors, texture indices and roughness-grid lobes; pixel_init (shading.h) writes each
+    # pixel's own record (kd, F0, α, g_scale, lobes) from them.
+    BASE = 32         # base colour factor (RGB)
+    METAL = 35        # metallic factor
+    ROUGH = 36        # roughness factor
+    ANISO = 37        # KHR_materials_anisotropy strength (α along t = lerp(α, 1, s²))
+    BCTEX = 38        # texture index of the base-colour texture (−1: none)
+    MRTEX = 39        # texture index of the metallic-roughness texture (−1: none)
+    SVLOB = 40        # first lobe row of the roughness grid's lobe sets (−1: no grid)
+    SVN = 41          # roughness grid entries (uniform in ln α from SVA0 to SVA1)
+    SVSTEP = 42       # lobe rows per grid entry (its SG lobes + the ASG header row)
+    SVA0 = 43         # smallest α of the grid
+    SVA1 = 44         # largest α of the grid
+    SVFRAC = 45       # a pixel's record: weight of the next grid entry's lobes (0: none)
+    SV = 46           # a pixel's record: 1 = per-pixel GGX (exact D analytic, not the table)
 
 
 # The packers index a record by these names (the `re` module's idiom for enum members).

@@ -19,7 +19,8 @@ from sgpipe.render.envdata import EnvData
 from sgpipe.render.headers import fh_coefficients, kernel_headers
 from sgpipe.render.materials import MaterialTable
 from sgpipe.render.methods import METHODS, PUBLISHED_SWITCHES, TORAL19_SWITCHES
-from sgpipe.render.records import ObjectFloatSlot, ObjectSlot
+from sgpipe.render.records import MAT_STRIDE, MaterialSlot, ObjectFloatSlot, ObjectSlot
+from sgpipe.render.textures import Textures  # noqa: F401  (the renderer's texture set)
 
 
 @dataclass
@@ -90,32 +91,6 @@ class Frame:
         return img
 
 
-@dataclass
-class Textures:
-    """RGBA float textures packed in one buffer; index = position in `images`."""
-
-    images: list = field(default_factory=list)
-
-    def add(self, img: np.ndarray) -> int:
-        self.images.append(np.asarray(img, np.float32))
-        return len(self.images) - 1
-
-    def pack(self):
-        infos, parts, off = [], [], 0
-        for im in self.images:
-            im = im if im.ndim == 3 else im[..., None]
-            h, w, c = im.shape
-            rgba = np.ones((h, w, 4), np.float32)
-            rgba[..., :min(c, 4)] = im[..., :4]
-            if c == 1:
-                rgba[..., 1:3] = im[..., :1]
-            parts.append(rgba.reshape(-1, 4))
-            infos.append((off, w, h, 0))
-            off += h * w
-        texels = np.concatenate(parts) if parts else np.zeros((1, 4), np.float32)
-        return texels, np.asarray(infos or [(0, 1, 1, 0)], np.int32)
-
-
 class Renderer:
     """Static scene data on the OpenCL device + one launch per method and frame."""
 
@@ -145,6 +120,8 @@ class Renderer:
         self.nv = -(-nv // 4) * 4          # kernels read the PCA terms as float4
         self.timings: dict[str, float] = {}
         self._kernels: dict[str, object] = {}
+        # material textures with MIP chains: lookups filtered over each pixel's footprint
+        self.textured = any(e.mip for e in (textures or Textures()).entries)
         self._upload(textures or Textures(), list(lights))
         # the normal-map and transport methods' buffers, empty until their data is attached
         from sgpipe.render.normalmap_data import NormalMapData
@@ -191,7 +168,7 @@ class Renderer:
         """Device buffers and scalars of the scene, keyed by the kernels' parameter names."""
         dev = lambda a, dt=np.float32: opencl.to_device(self.ctx, a, dtype=dt)
         objs, objf, faces, coeffs, data = self._object_records()
-        texels, texinfo = textures.pack()
+        texels, texinfo, texaff = textures.pack()
         e = self.env
         lrec = np.zeros((max(len(lights), 1), 2, 4), np.float32)
         for k, L in enumerate(lights):
@@ -207,6 +184,7 @@ class Renderer:
             mats=dev(m.records), lobes=dev(m.lobes.reshape(-1, 4)), tables=dev(m.tables),
             gmm=dev(m.gmm), ndf_info=dev(m.ndf_info, np.int32),
             texels=dev(texels), texinfo=dev(texinfo, np.int32),
+            texaff=dev(texaff.reshape(-1, 4)),
             pyr=dev(e.gamma.texels), pyr_off=dev(e.gamma.offsets, np.int32),
             pyr_res=dev(e.gamma.res, np.int32), pyr_lam=dev(e.lambdas), pyr_n=len(e.lambdas),
             pyr_log_ratio=e.log_ratio,
@@ -318,7 +296,16 @@ class Renderer:
                     gobj=dev(fr.obj, np.int32), gtri=dev(fr.tri, np.int32), gbary=dev(fr.bary),
                     gduv=dev(fr.duv if fr.duv is not None
                              else np.zeros((max(len(fr.index), 1), 4))),
+                    pxmat=opencl.empty_device(self.ctx, 4 * MAT_STRIDE * (
+                        max(len(fr.index), 1) if self._per_pixel_materials else 1)),
                     out=opencl.empty_device(self.ctx, 16 * max(len(fr.index), 1)))
+
+    @property
+    def _per_pixel_materials(self) -> bool:
+        """Does a material take its parameters from textures per pixel (pixel_init writes
+        each such pixel's record into the frame's `pxmat`)?"""
+        r = self.materials.records
+        return bool(np.any(r[:, MaterialSlot.BCTEX] >= 0) or np.any(r[:, MaterialSlot.MRTEX] >= 0))
 
     def shade(self, method: str, fr: Frame | dict, *, flags: int = 0, fis_samples: int = 40,
               gmm_interpolate: bool = True, mip_coverage: float = 0.9, seed: int = 0):

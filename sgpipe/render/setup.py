@@ -82,6 +82,7 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
     names, mats = [], []
     # gmm_toral19 reads Töral19's published per-view fit unless `fit` is given back
     published_gmm = toral19 and "fit" not in rs.gmm_toral19_adds
+    assets: dict = {}           # glTF files, read once for all their primitives' objects
     for o, spec in zip(cfg.scene.objects, specs):
         if o.material in names:
             continue
@@ -92,9 +93,12 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
             m.tabulate_ndf(material_brdf(spec))
         t = tex_by_mat.get(o.material)
         if t is not None and t.kd_map:
-            m.kd_texture = textures.add(_image(t.kd_map, "render.material_textures.kd_map"))
+            m.kd_texture = textures.add(_image(t.kd_map, "render.material_textures.kd_map"),
+                                        mip=True)
         if t is not None and t.ks_map:
-            m.ks_texture = textures.add(_image(t.ks_map, "render.material_textures.ks_map"))
+            m.ks_texture = textures.add(_image(t.ks_map, "render.material_textures.ks_map"),
+                                        mip=True)
+        m.gltf = _gltf_factors(gltf_surface(cfg, o, assets), spec, textures)
         names.append(o.material)
         mats.append(m)
     shading = []
@@ -121,6 +125,51 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
         from sgpipe.render.normalmap_data import attach_normalmaps, load_normalmap_data
         attach_normalmaps(renderer, load_normalmap_data(cfg, out_dir, specs))
     return SceneBundle(renderer, objects, [p for _, p in vis], environment_latlong(cfg))
+
+
+def _gltf_factors(surface, spec, textures: Textures):
+    """A textured glTF material (GltfSurface, or None) as the kernels' GltfFactors, its
+    textures added to `textures` with their MIP chains, wrap modes and transforms."""
+    if surface is None:
+        return None
+    from sgpipe.render.materials import GltfFactors
+
+    def add(tex):
+        if tex is None:
+            return -1
+        return textures.add(tex.image, mip=True, wrap=tex.wrap, matrix=tex.matrix)
+    return GltfFactors(np.asarray(surface.base_color, float), float(surface.metallic),
+                       float(surface.roughness), float(spec.params.get("anisotropy", 0.0)),
+                       add(surface.base_texture), add(surface.metal_rough_texture))
+
+
+def gltf_surface(cfg, obj, assets: dict):
+    """The textured glTF material of an object that is one glTF primitive (gltf_node and
+    gltf_primitive set) rendered with a `gltf_pbr` material: the material's factors (its
+    params) times the primitive's glTF material's base colour and metallic-roughness textures;
+    None when the material has neither texture. `assets`: glTF files read so far, by path."""
+    if obj.gltf_node is None or obj.gltf_primitive is None or cfg.fit is None:
+        return None
+    spec = next((m for m in cfg.fit.materials if m.name == obj.material), None)
+    if spec is None or spec.model != "gltf_pbr":
+        return None
+    from sgpipe.io.gltf import read_gltf
+    from sgpipe.io.gltf_textures import material_texture
+    from sgpipe.reference.surface import GltfSurface
+    if obj.mesh not in assets:
+        assets[obj.mesh] = read_gltf(obj.mesh)
+    asset = assets[obj.mesh]
+    ref = next((r for r in asset.primitives
+                if (r.node, r.primitive) == (obj.gltf_node, obj.gltf_primitive)), None)
+    if ref is None or ref.material is None:
+        return None
+    base = material_texture(asset, ref.material, "baseColorTexture")
+    mr = material_texture(asset, ref.material, "metallicRoughnessTexture")
+    if base is None and mr is None:
+        return None
+    p = spec.params
+    return GltfSurface(np.broadcast_to(np.asarray(p.get("base_color", 1.0), float), (3,)),
+                       float(p.get("metallic", 1.0)), float(p.get("roughness", 1.0)), base, mr)
 
 
 def environment_scale(cfg) -> float:

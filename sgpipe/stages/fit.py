@@ -140,6 +140,8 @@ def write_ndf_sg(run, name: str, brdf, spec, seed: int) -> dict:
         an = fit_ndf_sg(ndf, method="analytic")
         rep["analytic"] = {"sharpness": float(an.sharpness[0]),
                            "amplitude": float(an.amplitude[0]), "rel_l2": an.rel_l2}
+    if getattr(brdf, "name", None) == "gltf_pbr" and ndf.isotropic:
+        rep["roughness_grid"] = write_ndf_sg_rough(run, name)
     if spec.anisotropic == "asg" and not ndf.isotropic:
         asg, rep["asg"] = ndf_asg(ndf, spec.asg_lobes)
         artifacts.write_ndf_asg(run, name, asg.arrays())
@@ -148,6 +150,20 @@ def write_ndf_sg(run, name: str, brdf, spec, seed: int) -> dict:
         rep["curve"] = {"lobes": list(range(1, len(fits) + 1)),
                         "rel_l2": [f.rel_l2 for f in fits]}
     return rep
+
+
+def write_ndf_sg_rough(run, name: str) -> dict:
+    """ndf_sg_rough.npz of an isotropic gltf_pbr material (its roughness may come from a
+    texture: Wang09 §4.1's per-pixel lobes) and its part of the report."""
+    from sgpipe.brdf.ndf import GGXNDF
+    from sgpipe.fit.ndf_sg_rough import fit_roughness_grid
+    grid = fit_roughness_grid(GGXNDF)
+    artifacts.write_ndf_sg_rough(run, name, grid.arrays())
+    return {"entries": len(grid.alpha), "lobes": int(grid.sharpness.shape[1]),
+            "alpha": [float(grid.alpha[0]), float(grid.alpha[-1])],
+            "max_rel_l2": float(grid.rel_l2.max()),
+            "max_interpolated_rel_l2": float(grid.mid_rel_l2.max()),
+            "max_direct_mid_rel_l2": float(grid.mid_direct_rel_l2.max())}
 
 
 def write_view_gmm_toral19(run, name: str, brdf, spec, kw: dict, gmm) -> float:

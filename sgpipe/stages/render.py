@@ -101,7 +101,8 @@ def run(cfg, out_dir: Path, *, force: bool = False):
         gb = tracer.trace(*cam.rays())       # the pixel centres: gbuffer.npz, surface masks
         subframes = supersampled_frames(cam, tracer, bundle, rs.supersample, rs.background,
                                         centre=gb,
-                                        footprints=any(m.needs_normalmap for m in shaders))
+                                        footprints=any(m.needs_normalmap for m in shaders)
+                                        or bool(bundle.renderer.textured))
         n_shaded = int(gb.hit.sum())
         run.timings["gbuffer_s"] = time.perf_counter() - t0
         art.write_gbuffer(run, {k: getattr(gb, k) for k in art.GBUFFER_ARRAYS})
@@ -207,7 +208,7 @@ def object_maps(cfg) -> list:
     """Per scene object the images the OpenCL methods read for it (sgpipe.reference.ObjectMaps):
     its normal map and its material's kd / ks textures (render.material_textures)."""
     from sgpipe.reference import ObjectMaps
-    from sgpipe.render.setup import read_texture
+    from sgpipe.render.setup import gltf_surface, read_texture
     tex = {t.material: t for t in cfg.render.material_textures}
     cache: dict = {}
     assets: dict = {}           # glTF files, read once for all their primitives' objects
@@ -225,37 +226,8 @@ def object_maps(cfg) -> list:
                                                                f"scene.objects.{k}.normal_map"),
             kd_map=image(t.kd_map, "render.material_textures.kd_map") if t and t.kd_map else None,
             ks_map=image(t.ks_map, "render.material_textures.ks_map") if t and t.ks_map else None,
-            gltf=_gltf_surface(cfg, o, assets)))
+            gltf=gltf_surface(cfg, o, assets)))
     return out
-
-
-def _gltf_surface(cfg, obj, assets: dict):
-    """The textured glTF material of an object that is one glTF primitive (gltf_node and
-    gltf_primitive set) rendered with a `gltf_pbr` material: the material's factors (its
-    params) times the primitive's glTF material's base colour and metallic-roughness textures;
-    None when the material has neither texture. `assets`: glTF files read so far, by path."""
-    if obj.gltf_node is None or obj.gltf_primitive is None or cfg.fit is None:
-        return None
-    spec = next((m for m in cfg.fit.materials if m.name == obj.material), None)
-    if spec is None or spec.model != "gltf_pbr":
-        return None
-    from sgpipe.io.gltf import read_gltf
-    from sgpipe.io.gltf_textures import material_texture
-    from sgpipe.reference.surface import GltfSurface
-    if obj.mesh not in assets:
-        assets[obj.mesh] = read_gltf(obj.mesh)
-    asset = assets[obj.mesh]
-    ref = next((r for r in asset.primitives
-                if (r.node, r.primitive) == (obj.gltf_node, obj.gltf_primitive)), None)
-    if ref is None or ref.material is None:
-        return None
-    base = material_texture(asset, ref.material, "baseColorTexture")
-    mr = material_texture(asset, ref.material, "metallicRoughnessTexture")
-    if base is None and mr is None:
-        return None
-    p = spec.params
-    return GltfSurface(np.broadcast_to(np.asarray(p.get("base_color", 1.0), float), (3,)),
-                       float(p.get("metallic", 1.0)), float(p.get("roughness", 1.0)), base, mr)
 
 
 def _reference(cfg, bundle, run) -> np.ndarray:

@@ -50,12 +50,12 @@ __kernel void fis_shade(FIS_SHADE_ARGS)
 
     int4 ndf = ndf_info[mi];
     int nl = ndf.w ? min((int)m[MAT_NLOBES], MAX_NDF_LOBES) : 0;
-    int lobe0 = (int)m[MAT_LOBE0];
     float3 col = (float3)(0.0f);
     float wsum = 0.0f;
     float lw[MAX_NDF_LOBES];
     for (int j = 0; j < nl; ++j) {
-        float4 L0 = lobes[2 * (lobe0 + j)], L1 = lobes[2 * (lobe0 + j) + 1];
+        float4 L0, L1;
+        ndf_lobe(lobes, m, j, &L0, &L1);
         lw[j] = L1.x * sg_integral_unit(L0.w);
         wsum += lw[j];
     }
@@ -88,7 +88,8 @@ __kernel void fis_shade(FIS_SHADE_ARGS)
             int j = 0;
             for (; j < nl - 1; ++j) { if (pick < acc + lw[j]) break; acc += lw[j]; }
             float uu = clamp((pick - acc) / fmax(lw[j], 1e-30f), 0.0f, 0.99999f);
-            float4 L0 = lobes[2 * (lobe0 + j)];
+            float4 L0, L1;
+            ndf_lobe(lobes, m, j, &L0, &L1);
             float3 h = vmf_sample(normalize(L0.xyz), L0.w, uu, u2);
             ip = 2.0f * dot(op, h) * h - op;
         } else {
@@ -101,7 +102,8 @@ __kernel void fis_shade(FIS_SHADE_ARGS)
         float oh = dot(op, h);
         float ph_h = 0.0f;
         for (int j = 0; j < nl; ++j) {
-            float4 L0 = lobes[2 * (lobe0 + j)];
+            float4 L0, L1;
+            ndf_lobe(lobes, m, j, &L0, &L1);
             ph_h += lw[j] / wsum * vmf_pdf(normalize(L0.xyz), L0.w, h);
         }
         float p_s = oh > 0.0f ? ph_h / (4.0f * oh) : 0.0f;
@@ -111,7 +113,7 @@ __kernel void fis_shade(FIS_SHADE_ARGS)
         float3 ig = quat_rotate(q, ip);
         if (ig.z <= 0.0f) continue;
         if (!(flags & FLAG_NO_VISIBILITY) && vis_theta(&vis, ig) <= 0.0f) continue;
-        float3 f = mf_M(m, tables, ks, op, ip) * ndf_table(tables, ndf, h);
+        float3 f = mf_M(m, tables, ks, op, ip) * ndf_exact(m, tables, ndf, h);
         float3 iw = normalize(to_world(ig, T, B, N));
         float omega_s = 1.0f / denom;   /* = 1/(N p) */
         float lod = fmax(0.5f * log2(omega_s / cube_texel_solid_angle(iw, N0)) + 1.0f, 0.0f);
@@ -126,7 +128,7 @@ __kernel void fis_shade(FIS_SHADE_ARGS)
         if (!(flags & FLAG_NO_VISIBILITY) && vis_theta(&vis, lg) <= 0.0f) continue;
         float3 h = normalize(op + lp);
         float3 f = mf_diffuse(m, kd, op, lp);
-        if (nl > 0) f += mf_M(m, tables, ks, op, lp) * ndf_table(tables, ndf, h);
+        if (nl > 0) f += mf_M(m, tables, ks, op, lp) * ndf_exact(m, tables, ndf, h);
         col += f * lp.z * sg_integral(Lw);
     }
     out[gid] = (float4)(col, 1.0f);

@@ -69,3 +69,11 @@ __kernel void t_brdf(__global const float *mats, __global const float *tables,
     mo[i] = (float4)(mf_M(mats, tables, mat3(mats, MAT_KS), o[i].xyz, in[i].xyz), 0.0f);
     fd[i] = (float4)(mf_diffuse(mats, mat3(mats, MAT_KD), o[i].xyz, in[i].xyz), 0.0f);
 }
+
+/* Texture lookups (shading.h): tex_filtered of texture k at OBJ uv with footprint duv. */
+__kernel void t_tex(__global const float4 *texels, __global const int4 *texinfo,
+                    __global const float4 *texaff, const int k, __global const float2 *uv,
+                    __global const float4 *duv, __global float4 *out) {
+    int i = get_global_id(0);
+    out[i] = tex_filtered(texels, texinfo[k], texaff, k, uv[i], duv[i]);
+}

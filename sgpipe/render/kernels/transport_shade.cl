@@ -75,7 +75,7 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
     float3 rd = (float3)(0.0f), rs = (float3)(0.0f);
     if (to.w != 0 && tri >= 0) {
         Pixel px = pixel_init(gid, gnrm, gtan, gview, gpos, guv, gobj, objs, mats, texels,
-                              texinfo);
+                              texinfo, texaff, gduv, pxmat);
         float3 N = px.N, T = px.T, B = px.B, x = px.x;
         Vis vis;
         vis_init(&vis, px.ob, OBJF_MAXD(objf[gobj[gid]]), tri, gbary[gid], vfaces, coeffs,

@@ -136,4 +136,35 @@ inline float ndf_table(__global const float *tables, int4 info, float3 h) {
     return mix(a, b, ft);
 }
 
+/* The exact NDF D(h) of a pixel's material: a textured gltf_pbr pixel's (MAT_SV: its own
+ * GGX, peak-normalised as brdf.ndf.GGXNDF: 1/(x²/α_t² + y²/α_b² + z²)²), else the material's
+ * table. */
+inline float ndf_exact(__global const float *m, __global const float *tables, int4 info,
+                       float3 h) {
+    if (m[MAT_SV] > 0.5f) {
+        if (h.z <= 0.0f) return 0.0f;
+        float au = m[MAT_AU], av = m[MAT_AV];
+        float q = h.x * h.x / (au * au) + h.y * h.y / (av * av) + h.z * h.z;
+        return 1.0f / (q * q);
+    }
+    return ndf_table(tables, info, h);
+}
+
+/* SG lobe j of a pixel's material, (axis, λ) and (μ, …) as in the lobe table; a textured
+ * gltf_pbr pixel's lobes interpolated between two roughness-grid entries (ln λ and μ linear
+ * in ln α with weight MAT_SVFRAC on the entry MAT_SVSTEP rows on: fit.ndf_sg_rough). */
+inline void ndf_lobe(__global const float4 *lobes, __global const float *m, int j,
+                     float4 *l0, float4 *l1) {
+    int l = (int)m[MAT_LOBE0] + j;
+    *l0 = lobes[2 * l];
+    *l1 = lobes[2 * l + 1];
+    float t = m[MAT_SVFRAC];
+    if (t > 0.0f) {
+        int u = l + (int)m[MAT_SVSTEP];
+        float4 b0 = lobes[2 * u], b1 = lobes[2 * u + 1];
+        (*l0).w = exp(mix(log((*l0).w), log(b0.w), t));
+        (*l1).x = mix((*l1).x, b1.x, t);
+    }
+}
+
 #endif

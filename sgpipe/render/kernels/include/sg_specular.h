@@ -95,8 +95,8 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
         ASGPlan plan;
         int nsub = SPEC_SUBLOBES;
         if (j < nl) {
-            float4 L0 = lobes[2 * (lobe0 + j)];
-            float4 L1 = lobes[2 * (lobe0 + j) + 1];
+            float4 L0, L1;
+            ndf_lobe(lobes, m, j, &L0, &L1);
             spec_warp(sg_make(normalize(L0.xyz), L0.w, (float3)(L1.x)), op, sub);
         } else {
             int a = lobe0 + nsg + 1 + (j - nl);

@@ -23,6 +23,58 @@ inline float4 tex_bilinear(__global const float4 *texels, int4 info, float2 uv) 
     return mix(a, b, fy);
 }
 
+/* Texel index i wrapped into [0, n): mode 0 repeat, 1 clamp to edge, 2 mirrored repeat. */
+inline int tex_wrap(int i, int n, int mode) {
+    if (mode == 1) return clamp(i, 0, n - 1);
+    if (mode == 2) { int p = ((i % (2 * n)) + 2 * n) % (2 * n); return p < n ? p : 2 * n - 1 - p; }
+    return ((i % n) + n) % n;
+}
+
+/* Bilinear between texel centres of MIP level `lv` (render.textures: level l is
+ * max(1, w >> l) × max(1, h >> l), stored after level l − 1, rows top to bottom) at glTF
+ * texture coordinates (s, t) (t = 0 the top row), the record's wrap modes. */
+inline float4 tex_level(__global const float4 *texels, int4 info, int lv, float2 st) {
+    int w = info.y, h = info.z, off = info.x;
+    for (int l = 0; l < lv; ++l) { off += w * h; w = max(w >> 1, 1); h = max(h >> 1, 1); }
+    int ws = (info.w >> 8) & 3, wt = (info.w >> 10) & 3;
+    float x = st.x * (float)w - 0.5f, y = st.y * (float)h - 0.5f;
+    float x0f = floor(x), y0f = floor(y);
+    float fx = x - x0f, fy = y - y0f;
+    int x0 = tex_wrap((int)x0f, w, ws), x1 = tex_wrap((int)x0f + 1, w, ws);
+    int y0 = tex_wrap((int)y0f, h, wt), y1 = tex_wrap((int)y0f + 1, h, wt);
+    __global const float4 *t = texels + off;
+    float4 a = mix(t[y0 * w + x0], t[y0 * w + x1], fx);
+    float4 b = mix(t[y1 * w + x0], t[y1 * w + x1], fx);
+    return mix(a, b, fy);
+}
+
+/* A texture at OBJ uv (v = 0 the bottom row) filtered over the pixel's footprint duv =
+ * (∂u/∂x, ∂v/∂x, ∂u/∂y, ∂v/∂y) (scene.footprint): the glTF texture transform (aff, rows of its
+ * 3×3 matrix on (s, t) = (u, 1 − v); aff[0].w = 0: none), then trilinear between the MIP levels
+ * around log2 of the footprint's longer side in texels (OpenGL's isotropic rule); level 0
+ * bilinear where the footprint is under a texel or the texture has no chain. */
+inline float4 tex_filtered(__global const float4 *texels, int4 info,
+                           __global const float4 *texaff, int k, float2 uv, float4 duv) {
+    float2 st = (float2)(uv.x, 1.0f - uv.y);
+    float2 dx = (float2)(duv.x, -duv.y), dy = (float2)(duv.z, -duv.w);
+    float4 a0 = texaff[2 * k], a1 = texaff[2 * k + 1];
+    if (a0.w != 0.0f) {
+        st = (float2)(a0.x * st.x + a0.y * st.y + a0.z, a1.x * st.x + a1.y * st.y + a1.z);
+        dx = (float2)(a0.x * dx.x + a0.y * dx.y, a1.x * dx.x + a1.y * dx.y);
+        dy = (float2)(a0.x * dy.x + a0.y * dy.y, a1.x * dy.x + a1.y * dy.y);
+    }
+    int levels = info.w & 255;
+    float2 sz = (float2)((float)info.y, (float)info.z);
+    float rho = fmax(length(dx * sz), length(dy * sz));
+    float lod = rho > 1.0f ? log2(rho) : 0.0f;
+    lod = fmin(lod, (float)(levels - 1));
+    int l0 = (int)floor(lod);
+    float f = lod - (float)l0;
+    float4 c = tex_level(texels, info, l0, st);
+    if (f > 0.0f && l0 + 1 < levels) c = mix(c, tex_level(texels, info, l0 + 1, st), f);
+    return c;
+}
+
 /* Shortest-arc quaternion (x, y, z, w) taking +z to the unit vector n (n.z > −1). */
 inline float4 quat_from_z(float3 n) {
     float4 q = (float4)(-n.y, n.x, 0.0f, 1.0f + n.z);
@@ -123,11 +175,60 @@ typedef struct {
     float4 q, qi;
 } Pixel;
 
+/* A textured gltf_pbr material's record for one pixel (Wang09 §4.1: the model's parameters
+ * textured, the reflectance built per pixel), written into the pixel's scratch record r:
+ * base colour c, metallic m and roughness from factor × texel (filtered over the footprint),
+ * then what the uniform material's packer derives from them (brdf.models.gltf_pbr): kd = (1 −
+ * m) c, Schlick F0 = lerp(0.04, c, m), α = max(roughness, 0.06)², α_t = lerp(α, 1, s²),
+ * g_scale = 1/(4 α_t α); the NDF lobes interpolated from the roughness grid (ndf_sg_rough.npz:
+ * LOBE0 = the lower entry, SVFRAC the upper one's weight; ndf_lobe) and SV = 1: the exact D
+ * analytic at the pixel's α (ndf_exact) instead of the material's table. */
+inline void gltf_pixel_record(__global const float *m, __global float *r,
+                              __global const float4 *texels, __global const int4 *texinfo,
+                              __global const float4 *texaff, float2 uv, float4 duv) {
+    for (int k = 0; k < MAT_STRIDE; ++k) r[k] = m[k];
+    float3 c = mat3(m, MAT_BASE);
+    float metal = m[MAT_METAL], rough = m[MAT_ROUGH];
+    int bt = (int)m[MAT_BCTEX], mt = (int)m[MAT_MRTEX];
+    if (bt >= 0) c *= tex_filtered(texels, texinfo[bt], texaff, bt, uv, duv).xyz;
+    if (mt >= 0) {
+        float4 t = tex_filtered(texels, texinfo[mt], texaff, mt, uv, duv);
+        rough *= t.y;
+        metal *= t.z;
+    }
+    metal = clamp(metal, 0.0f, 1.0f);
+    float3 kd = (1.0f - metal) * c, f0 = mix((float3)(0.04f), c, metal);
+    float rr = fmax(clamp(rough, 0.0f, 1.0f), 0.06f);
+    float av = rr * rr, s = m[MAT_ANISO];
+    float au = av + (1.0f - av) * s * s;
+    r[MAT_KD] = kd.x; r[MAT_KD + 1] = kd.y; r[MAT_KD + 2] = kd.z;
+    r[MAT_F0] = f0.x; r[MAT_F0 + 1] = f0.y; r[MAT_F0 + 2] = f0.z;
+    r[MAT_AU] = au; r[MAT_AV] = av;
+    r[MAT_GSCALE] = 1.0f / (4.0f * au * av);
+    r[MAT_KDTEX] = -1.0f; r[MAT_KSTEX] = -1.0f;
+    r[MAT_DIFFUSE] = 3.0f;     /* glTF's (the factors' record says none where metallic = 1) */
+    r[MAT_SV] = 1.0f;
+    r[MAT_SVFRAC] = 0.0f;
+    if (m[MAT_SVLOB] >= 0.0f) {
+        int ne = (int)m[MAT_SVN];
+        float g = (log(av) - log(m[MAT_SVA0])) / (log(m[MAT_SVA1]) - log(m[MAT_SVA0]))
+                  * (float)(ne - 1);
+        g = clamp(g, 0.0f, (float)(ne - 1));
+        int i0 = min((int)floor(g), ne - 2);
+        int step = (int)m[MAT_SVSTEP];
+        r[MAT_LOBE0] = m[MAT_SVLOB] + (float)(i0 * step);
+        r[MAT_NLOBES] = (float)(step - 1);
+        r[MAT_SVFRAC] = g - (float)i0;
+    }
+}
+
 inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const float4 *gtan,
                         __global const float4 *gview, __global const float4 *gpos,
                         __global const float2 *guv, __global const int *gobj,
                         __global const int8 *objs, __global const float *mats,
-                        __global const float4 *texels, __global const int4 *texinfo) {
+                        __global const float4 *texels, __global const int4 *texinfo,
+                        __global const float4 *texaff, __global const float4 *gduv,
+                        __global float *pxmat) {
     Pixel p;
     p.N = gnrm[gid].xyz;
     p.T = gtan[gid].xyz;
@@ -136,10 +237,17 @@ inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const flo
     p.ob = objs[gobj[gid]];
     p.m = mats + OBJ_MAT(p.ob) * MAT_STRIDE;
     p.uv = guv[gid];
+    float4 duv = gduv[gid];
+    if (p.m[MAT_BCTEX] >= 0.0f || p.m[MAT_MRTEX] >= 0.0f) {
+        __global float *r = pxmat + gid * MAT_STRIDE;
+        gltf_pixel_record(p.m, r, texels, texinfo, texaff, p.uv, duv);
+        p.m = r;
+    }
     p.kd = mat3(p.m, MAT_KD);
     p.ks = mat3(p.m, MAT_KS);
-    if ((int)p.m[MAT_KDTEX] >= 0) p.kd *= tex_bilinear(texels, texinfo[(int)p.m[MAT_KDTEX]], p.uv).xyz;
-    if ((int)p.m[MAT_KSTEX] >= 0) p.ks *= tex_bilinear(texels, texinfo[(int)p.m[MAT_KSTEX]], p.uv).xyz;
+    int kt = (int)p.m[MAT_KDTEX], st = (int)p.m[MAT_KSTEX];
+    if (kt >= 0) p.kd *= tex_filtered(texels, texinfo[kt], texaff, kt, p.uv, duv).xyz;
+    if (st >= 0) p.ks *= tex_filtered(texels, texinfo[st], texaff, st, p.uv, duv).xyz;
     p.q = (float4)(0.0f, 0.0f, 0.0f, 1.0f);
     if (OBJ_NMAP(p.ob) >= 0)
         p.q = quat_from_z(normal_from_map(tex_bilinear(texels, texinfo[OBJ_NMAP(p.ob)], p.uv)));
@@ -156,7 +264,8 @@ inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const flo
 #define SHADE_PIXEL_PROLOGUE \
     int gid = get_global_id(0); \
     if (gid >= n) return; \
-    Pixel px = pixel_init(gid, gnrm, gtan, gview, gpos, guv, gobj, objs, mats, texels, texinfo); \
+    Pixel px = pixel_init(gid, gnrm, gtan, gview, gpos, guv, gobj, objs, mats, texels, texinfo, \
+                          texaff, gduv, pxmat); \
     float3 N = px.N, T = px.T, B = px.B, x = px.x, kd = px.kd, ks = px.ks, op = px.op; \
     float4 q = px.q, qi = px.qi; \
     int8 ob = px.ob; \
@@ -192,7 +301,7 @@ inline float3 points_exact_specular(__global const float4 *pts, int n_pts,
         float3 lp = quat_rotate(qi, lg);
         if (lp.z <= 0.0f || lg.z <= 0.0f) continue;
         float3 h = normalize(op + lp);
-        rs += (env_scale * lp.z * ndf_table(tables, ndf, h)
+        rs += (env_scale * lp.z * ndf_exact(m, tables, ndf, h)
                * fh_hat(vis_theta(vis, lg), POINT_LAMBDA))
               * mf_M(m, tables, ks, op, lp) * pts[2 * k + 1].xyz;
     }
@@ -204,7 +313,7 @@ inline float3 points_exact_specular(__global const float4 *pts, int n_pts,
 inline float3 sharp_light_specular(float3 E, __global const float *m,
                                    __global const float *tables, int4 ndf, float3 ks, float3 o,
                                    float3 l) {
-    return E * mf_M(m, tables, ks, o, l) * ndf_table(tables, ndf, normalize(o + l));
+    return E * mf_M(m, tables, ks, o, l) * ndf_exact(m, tables, ndf, normalize(o + l));
 }
 
 /* One SG light L (local frame) through the diffuse side of Wang09 eq 39 / 42 with the SSDF
