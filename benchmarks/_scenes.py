@@ -23,10 +23,41 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def teapot_scene(width=512, height=512, nv=48, res=32, env_lobes=8):
+def gltf_materials(textured: bool):
+    """The glTF metal-rough material of the textured-asset frame, (materials, Textures): its
+    fitted lobes (fit.ndf_sg auto) and roughness grid; textured: a 256² base colour of tiled
+    paints and a metallic-roughness texture (roughness 0.05–0.8 along u, metal bands in v)."""
+    from sgpipe.brdf import make_brdf
+    from sgpipe.brdf.ndf import GGXNDF
+    from sgpipe.fit.ndf_sg import fit_ndf_sg
+    from sgpipe.fit.ndf_sg_rough import fit_roughness_grid
+    from sgpipe.render.materials import GltfFactors, Material
+    from sgpipe.render.renderer import Textures
+    params = {"base_color": [0.8, 0.6, 0.4], "metallic": 0.5, "roughness": 0.4}
+    brdf = make_brdf("gltf_pbr", params)
+    fit = fit_ndf_sg(brdf.ndf_model, n_lobes=0)
+    m = Material.from_brdf("paint", brdf, lobes=[(a, lam, mu) for a, lam, mu in zip(
+        fit.axis, fit.sharpness, fit.amplitude)])
+    m.tabulate_ndf(brdf)
+    tex = Textures()
+    if textured:
+        g = fit_roughness_grid(GGXNDF)
+        from sgpipe.artifacts.fit import RoughLobes
+        m.rough_grid = RoughLobes(g.alpha, g.sharpness, g.amplitude)
+        u, v = np.meshgrid(np.arange(256) / 256, np.arange(256) / 256)
+        paint = np.array([[0.8, 0.1, 0.05], [0.9, 0.6, 0.1], [0.05, 0.2, 0.8], [0.9, 0.9, 0.85]])
+        base = paint[((u * 8).astype(int) + (v * 8).astype(int)) % 4]
+        mr = np.stack([np.zeros_like(u), 0.05 + 0.75 * u, (v * 6).astype(int) % 2], -1)
+        m.gltf = GltfFactors(np.ones(3), 1.0, 1.0, 0.0, tex.add(base, mip=True),
+                             tex.add(mr, mip=True))
+    return [m], tex
+
+
+def teapot_scene(width=512, height=512, nv=48, res=32, env_lobes=8, gltf: str | None = None):
     """`sg` frame: teapot + floor of data_samples/, 1 NDF lobe, 8 environment SG lobes, `nv`
-    PCA terms at `res`² SSDF resolution (`synthetic_vis`), one point light.
-    → (Renderer, TraceObjects, Camera)."""
+    PCA terms at `res`² SSDF resolution (`synthetic_vis`), one point light. `gltf`: both
+    objects in one glTF metal-rough material instead, "uniform" or "textured"
+    (`gltf_materials`). → (Renderer, TraceObjects, Camera)."""
     from sgpipe.brdf import make_brdf
     from sgpipe.io.mesh import build_mesh, _read_mesh_file
     from sgpipe.render.envdata import CubeChain, EnvData
@@ -59,7 +90,11 @@ def teapot_scene(width=512, height=512, nv=48, res=32, env_lobes=8):
                       np.float32),
                   light_lambda=rng.uniform(2, 40, env_lobes).astype(np.float32),
                   light_mu=rng.uniform(0.1, 2, (env_lobes, 3)).astype(np.float32))
-    r = Renderer(env=env, materials=pack_materials(mats), objects=shading,
+    textures = None
+    if gltf is not None:
+        mats, textures = gltf_materials(gltf == "textured")
+        shading = [ObjectShading(0, vis=s.vis) for s in shading]
+    r = Renderer(env=env, materials=pack_materials(mats), objects=shading, textures=textures,
                  lights=[Light("point", (-2.0, 3.2, 1.6), (8, 8, 8), 0.05)])
     cam = Camera(eye=(2.4, 1.9, 3.3), target=(0, 0.42, 0), fov_deg=34, width=width,
                  height=height)

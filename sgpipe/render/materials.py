@@ -20,7 +20,8 @@ from sgpipe.errors import BadInput
 from sgpipe.render.records import (ANISO, AU, AV, BASE, BCTEX, DIFFUSE, ETA, F0, FRESNEL, GMM,
                                    GMM_FLAGS, GMM_K, GMM_NP, GMM_NT, GMM_TMAX, GSCALE, K, KD,
                                    KDTEX, KS, KSTEX, LOBE0, MAT_STRIDE, METAL, MRTEX, NLOBES,
-                                   ROUGH, SHADOW, STAB, SVA0, SVA1, SVLOB, SVN, SVSTEP)
+                                   ROUGH, SHADOW, STAB, SVA0, SVA1, SVLIN, SVLOB, SVN,
+                                   SVSTEP)
 
 # The exact-NDF table (fis) is located through a separate int4 per material (offset, nt, np, 0).
 
@@ -41,6 +42,7 @@ class GltfFactors:
     anisotropy: float = 0.0
     base_texture: int = -1
     metal_rough_texture: int = -1
+    linear: bool = False    # the textures hold (kd, roughness) and (F0, 0): linear_parameters
 
 
 @dataclass
@@ -234,7 +236,7 @@ def pack_materials(materials: list[Material]) -> MaterialTable:
         if g is not None:
             r[BASE:BASE + 3] = g.base_color
             r[METAL], r[ROUGH], r[ANISO] = g.metallic, g.roughness, g.anisotropy
-            r[BCTEX], r[MRTEX] = g.base_texture, g.metal_rough_texture
+            r[BCTEX], r[MRTEX], r[SVLIN] = g.base_texture, g.metal_rough_texture, g.linear
             grid = m.rough_grid
             if g.metal_rough_texture >= 0 and grid is not None and g.anisotropy == 0.0:
                 # the roughness grid's lobe sets, each laid out as a material's (its SG

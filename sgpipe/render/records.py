@@ -56,6 +56,8 @@ class MaterialSlot(IntEnum):
     SVA1 = 44         # largest α of the grid
     SVFRAC = 45       # a pixel's record: weight of the next grid entry's lobes (0: none)
     SV = 46           # a pixel's record: 1 = per-pixel GGX (exact D analytic, not the table)
+    SVLIN = 47        # 1: BCTEX holds (kd, ln roughness) and MRTEX (F0, 0) per texel, the
+                      # BRDF's linear parameters (filtered as they enter it); 0: the glTF maps
 
 
 # The packers index a record by these names (the `re` module's idiom for enum members).

@@ -98,7 +98,7 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
         if t is not None and t.ks_map:
             m.ks_texture = textures.add(_image(t.ks_map, "render.material_textures.ks_map"),
                                         mip=True)
-        m.gltf = _gltf_factors(gltf_surface(cfg, o, assets), spec, textures)
+        m.gltf = _gltf_factors(gltf_textures(cfg, o, assets), textures)
         names.append(o.material)
         mats.append(m)
     shading = []
@@ -127,27 +127,71 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
     return SceneBundle(renderer, objects, [p for _, p in vis], environment_latlong(cfg))
 
 
-def _gltf_factors(surface, spec, textures: Textures):
-    """A textured glTF material (GltfSurface, or None) as the kernels' GltfFactors, its
-    textures added to `textures` with their MIP chains, wrap modes and transforms."""
-    if surface is None:
+def _gltf_factors(found, textures: Textures):
+    """A textured glTF material (gltf_textures' triple, or None) as the kernels' GltfFactors,
+    its textures added to `textures` with their MIP chains, wrap modes and transforms."""
+    if found is None:
         return None
     from sgpipe.render.materials import GltfFactors
+    spec, base, mr = found
+    p = spec.params
+    g = GltfFactors(np.broadcast_to(np.asarray(p.get("base_color", 1.0), float), (3,)),
+                    float(p.get("metallic", 1.0)), float(p.get("roughness", 1.0)),
+                    float(p.get("anisotropy", 0.0)))
+    lin = linear_parameters(g, base, mr)
+    if lin is not None:
+        (a, b), tex = lin
+        g.base_texture = textures.add(a, mip=True, wrap=tex.wrap, matrix=tex.matrix)
+        g.metal_rough_texture = textures.add(b, mip=True, wrap=tex.wrap, matrix=tex.matrix)
+        g.linear = True
+        return g
+    for tex, slot in ((base, "base_texture"), (mr, "metal_rough_texture")):
+        if tex is not None:
+            setattr(g, slot, textures.add(tex.image, mip=True, wrap=tex.wrap,
+                                          matrix=tex.matrix))
+    return g
 
-    def add(tex):
-        if tex is None:
-            return -1
-        return textures.add(tex.image, mip=True, wrap=tex.wrap, matrix=tex.matrix)
-    return GltfFactors(np.asarray(surface.base_color, float), float(surface.metallic),
-                       float(surface.roughness), float(spec.params.get("anisotropy", 0.0)),
-                       add(surface.base_texture), add(surface.metal_rough_texture))
+
+def linear_parameters(g, base, mr):
+    """Per texel the glTF BRDF's linear parameters, ((kd, ln roughness) (H, W, 4), (F0, 0)),
+    with the texture whose grid they share, or None where the two textures' images, wraps or
+    transforms differ. The BRDF is linear in kd = (1 − m)c and F0 = lerp(0.04, c, m) (for a
+    given roughness), so a footprint's average of these is the average of the BRDF, where
+    averages of c and m form products that differ from it wherever colour and metalness change
+    together (filtering the maps of a metal band on a painted tile)."""
+    from sgpipe.brdf.base import GLTF_DIELECTRIC_F0
+    from sgpipe.brdf.models import GLTF_MIN_ROUGHNESS
+    if base is not None and mr is not None and (
+            base.image.shape[:2] != mr.image.shape[:2] or tuple(base.wrap) != tuple(mr.wrap)
+            or (base.matrix is None) != (mr.matrix is None)
+            or (base.matrix is not None and not np.array_equal(base.matrix, mr.matrix))):
+        return None
+    tex = base if base is not None else mr
+    h, w = tex.image.shape[:2]
+    c = np.broadcast_to(g.base_color, (h, w, 3)).astype(np.float64)
+    if base is not None:
+        c = c * base.image[..., :3]
+    metal = np.full((h, w), g.metallic)
+    rough = np.full((h, w), g.roughness)
+    if mr is not None:
+        rough = rough * mr.image[..., 1]
+        metal = metal * mr.image[..., 2]
+    metal = np.clip(metal, 0.0, 1.0)[..., None]
+    # roughness as ln r (r ≥ GLTF_MIN_ROUGHNESS, as the BRDF clamps it): a footprint mixing
+    # smooth and rough texels reads their geometric mean, the shinier compromise (a mixture of
+    # a sharp and a broad lobe keeps the sharp one's highlight)
+    log_r = np.log(np.maximum(np.clip(rough, 0.0, 1.0), GLTF_MIN_ROUGHNESS))
+    a = np.concatenate([(1.0 - metal) * c, log_r[..., None]], -1)
+    b = np.concatenate([(1.0 - metal) * GLTF_DIELECTRIC_F0 + metal * c, np.zeros((h, w, 1))],
+                       -1)
+    return (a, b), tex
 
 
-def gltf_surface(cfg, obj, assets: dict):
+def gltf_textures(cfg, obj, assets: dict):
     """The textured glTF material of an object that is one glTF primitive (gltf_node and
-    gltf_primitive set) rendered with a `gltf_pbr` material: the material's factors (its
-    params) times the primitive's glTF material's base colour and metallic-roughness textures;
-    None when the material has neither texture. `assets`: glTF files read so far, by path."""
+    gltf_primitive set) rendered with a `gltf_pbr` material: (its material spec, the glTF
+    material's base-colour and metallic-roughness GltfTextures, either None), or None when the
+    material has neither texture. `assets`: glTF files read so far, by path."""
     if obj.gltf_node is None or obj.gltf_primitive is None or cfg.fit is None:
         return None
     spec = next((m for m in cfg.fit.materials if m.name == obj.material), None)
@@ -155,7 +199,6 @@ def gltf_surface(cfg, obj, assets: dict):
         return None
     from sgpipe.io.gltf import read_gltf
     from sgpipe.io.gltf_textures import material_texture
-    from sgpipe.reference.surface import GltfSurface
     if obj.mesh not in assets:
         assets[obj.mesh] = read_gltf(obj.mesh)
     asset = assets[obj.mesh]
@@ -167,9 +210,7 @@ def gltf_surface(cfg, obj, assets: dict):
     mr = material_texture(asset, ref.material, "metallicRoughnessTexture")
     if base is None and mr is None:
         return None
-    p = spec.params
-    return GltfSurface(np.broadcast_to(np.asarray(p.get("base_color", 1.0), float), (3,)),
-                       float(p.get("metallic", 1.0)), float(p.get("roughness", 1.0)), base, mr)
+    return spec, base, mr
 
 
 def environment_scale(cfg) -> float:

@@ -208,7 +208,7 @@ def object_maps(cfg) -> list:
     """Per scene object the images the OpenCL methods read for it (sgpipe.reference.ObjectMaps):
     its normal map and its material's kd / ks textures (render.material_textures)."""
     from sgpipe.reference import ObjectMaps
-    from sgpipe.render.setup import gltf_surface, read_texture
+    from sgpipe.render.setup import read_texture
     tex = {t.material: t for t in cfg.render.material_textures}
     cache: dict = {}
     assets: dict = {}           # glTF files, read once for all their primitives' objects
@@ -226,8 +226,23 @@ def object_maps(cfg) -> list:
                                                                f"scene.objects.{k}.normal_map"),
             kd_map=image(t.kd_map, "render.material_textures.kd_map") if t and t.kd_map else None,
             ks_map=image(t.ks_map, "render.material_textures.ks_map") if t and t.ks_map else None,
-            gltf=gltf_surface(cfg, o, assets)))
+            gltf=_gltf_surface(cfg, o, assets)))
     return out
+
+
+def _gltf_surface(cfg, obj, assets: dict):
+    """The reference's view of an object's textured glTF material (sgpipe.reference's
+    GltfSurface: the material's factors times its textures), or None (render.setup
+    gltf_textures)."""
+    from sgpipe.reference.surface import GltfSurface
+    from sgpipe.render.setup import gltf_textures
+    found = gltf_textures(cfg, obj, assets)
+    if found is None:
+        return None
+    spec, base, mr = found
+    p = spec.params
+    return GltfSurface(np.broadcast_to(np.asarray(p.get("base_color", 1.0), float), (3,)),
+                       float(p.get("metallic", 1.0)), float(p.get("roughness", 1.0)), base, mr)
 
 
 def _reference(cfg, bundle, run) -> np.ndarray:

@@ -67,13 +67,16 @@ def _without(conf, feature):
 def _sg(conf, out):
     """sg of a config through the stage's own pieces (scene bundle, G-buffer, one launch)."""
     from sgpipe.render.methods import METHODS
-    from sgpipe.render.renderer import Frame
     from sgpipe.render.setup import build_scene
     from sgpipe.scene.camera import Camera
     from sgpipe.scene.gbuffer import Tracer
+    from sgpipe.stages.render import supersampled_frames
     bundle = build_scene(conf, out, [METHODS["sg"]])
-    gb = Tracer(bundle.objects).trace(*Camera.from_spec(conf.render.camera).rays())
-    fr = Frame.from_gbuffer(gb)
+    cam = Camera.from_spec(conf.render.camera)
+    tracer = Tracer(bundle.objects)
+    # the stage's frame: textures read at the pixels' footprints
+    ((fr, _),) = supersampled_frames(cam, tracer, bundle, 1, False,
+                                     footprints=bundle.renderer.textured)
     return fr.to_image(bundle.renderer.shade("sg", fr))
 
 

@@ -72,32 +72,83 @@ def test_mip_levels_are_exact_box_averages():
                                / (w.sum() * 2))
 
 
-def test_kernel_lookup_matches_the_gltf_sampler_and_its_mip_levels():
+def _box_taps_np(tex, levels, uv, duv, taps=4):
+    """numpy port of shading.h tex_filtered: n_x × n_y bilinear taps over the footprint
+    parallelogram at the finest level where a side needs ≤ `taps` taps of one texel."""
+    from sgpipe.io.gltf_textures import GltfTexture
+    out = np.zeros((len(uv), 3))
+    h, w = tex.image.shape[:2]
+    for i, (p, d) in enumerate(zip(uv, duv)):
+        dx, dy = np.array([d[0], -d[1]]), np.array([d[2], -d[3]])
+        if tex.matrix is not None:
+            dx, dy = tex.matrix[:2, :2] @ dx, tex.matrix[:2, :2] @ dy
+        lx, ly = np.hypot(dx[0] * w, dx[1] * h), np.hypot(dy[0] * w, dy[1] * h)
+        need = max(lx, ly) / taps
+        lv = min(int(np.ceil(np.log2(need))), len(levels) - 1) if need > 1 else 0
+        nx = int(np.clip(np.ceil(lx / 2 ** lv - 1e-3), 1, taps))
+        ny = int(np.clip(np.ceil(ly / 2 ** lv - 1e-3), 1, taps))
+        level = GltfTexture(levels[lv], tex.wrap, tex.matrix)
+        acc = 0.0
+        for j in range(ny):
+            for k in range(nx):
+                a, b = (k + 0.5) / nx - 0.5, (j + 0.5) / ny - 0.5
+                # a step in (s, t) of a·dx + b·dy is, in sgpipe's uv, (a·du, a·dv) with the
+                # transform undone: step the uv by the pixel derivatives themselves
+                q = p + a * np.array(d[:2]) + b * np.array(d[2:])
+                acc = acc + level.bilinear(q[None])[0]
+        out[i] = acc / (nx * ny)
+    return out
+
+
+def test_kernel_lookup_is_the_box_footprint_over_mip_levels():
     """tex_filtered at a zero footprint is GltfTexture.bilinear (wrap modes, transform, top-left
-    origin); a footprint of exactly 2 texels reads level 1 bilinearly."""
+    origin); at any footprint it is the n_x × n_y taps of its rule (a numpy port, footprints of
+    0.5–60 texels, the transform's scaling included); and on a smooth image it is the box
+    average over the footprint (brute force, 64 × 64 samples) within 0.01 up to footprints of
+    32 texels (0.04 beyond, where a footprint covers half this 128 × 64 image)."""
     from sg_testlib import run_kernel
     from sgpipe.io.gltf_textures import CLAMP, MIRROR, REPEAT, GltfTexture
     rng = np.random.default_rng(5)
-    img = rng.random((16, 32, 3))
+    img = rng.random((64, 128, 3))
+    yy, xx = np.mgrid[0:64, 0:128]
+    smooth = np.stack([0.5 + 0.4 * np.sin(2 * np.pi * xx / 128) * np.cos(2 * np.pi * yy / 64),
+                       0.5 + 0.3 * np.cos(2 * np.pi * 2 * xx / 128),
+                       0.2 + 0.1 * np.sin(2 * np.pi * yy / 64)], -1)
     t = Textures()
     cases = [GltfTexture(img, (REPEAT, CLAMP)), GltfTexture(img, (MIRROR, REPEAT)),
              GltfTexture(img, (REPEAT, REPEAT), np.array([[0.0, -2.0, 0.3], [1.5, 0.0, 0.1],
-                                                          [0.0, 0.0, 1.0]]))]
+                                                          [0.0, 0.0, 1.0]])),
+             GltfTexture(smooth, (REPEAT, REPEAT))]
     for c in cases:
         t.add(c.image, mip=True, wrap=c.wrap, matrix=c.matrix)
     texels, info, aff = t.pack()
-    uv = rng.uniform(-1.5, 2.5, (500, 2)).astype(np.float32)
-    zero = np.zeros((500, 4), np.float32)
+    n = 300
+    uv = rng.uniform(-1.5, 2.5, (n, 2)).astype(np.float32)
+
+    def kernel(k, duv):
+        out, = run_kernel("t_tex", n, [texels, info, aff.reshape(-1, 4), np.int32(k), uv,
+                                       duv.astype(np.float32)], [((n, 4), np.float32)])
+        return out[:, :3]
+    zero = np.zeros((n, 4), np.float32)
     for k, c in enumerate(cases):
-        out, = run_kernel("t_tex", 500, [texels, info, aff.reshape(-1, 4), np.int32(k), uv, zero],
-                          [((500, 4), np.float32)])
-        np.testing.assert_allclose(out[:, :3], c.bilinear(uv), atol=2e-5)
-    # footprint 2 texels along u (∂u/∂x = 2/32): level 1 (16 × 8), bilinear
-    duv = np.tile(np.float32([2.0 / 32, 0.0, 0.0, 1.0 / 16]), (500, 1))
-    out, = run_kernel("t_tex", 500, [texels, info, aff.reshape(-1, 4), np.int32(0), uv, duv],
-                      [((500, 4), np.float32)])
-    lv1 = GltfTexture(mip_chain(img)[1], (REPEAT, CLAMP))
-    np.testing.assert_allclose(out[:, :3], lv1.bilinear(uv), atol=2e-5)
+        np.testing.assert_allclose(kernel(k, zero), c.bilinear(uv), atol=1e-4)
+    # footprints from half a texel to 60 texels, oblique
+    scale = np.exp(rng.uniform(np.log(0.5), np.log(60.0), n))[:, None]
+    ang = rng.uniform(0, np.pi, (n, 2))
+    duv = np.concatenate([np.cos(ang[:, :1]) / 128, np.sin(ang[:, :1]) / 64,
+                          0.6 * np.cos(ang[:, 1:]) / 128, 0.6 * np.sin(ang[:, 1:]) / 64],
+                         1) * scale
+    for k in (0, 2):
+        np.testing.assert_allclose(kernel(k, duv), _box_taps_np(
+            cases[k], mip_chain(cases[k].image), uv, duv), atol=1e-4)
+    got = kernel(3, duv)
+    a, b = np.meshgrid((np.arange(64) + 0.5) / 64 - 0.5, (np.arange(64) + 0.5) / 64 - 0.5)
+    for i in range(0, n, 15):
+        q = uv[i] + a.reshape(-1, 1) * duv[i, :2] + b.reshape(-1, 1) * duv[i, 2:]
+        want = cases[3].bilinear(q).mean(0)
+        # each tap is a bilinear texel of its level: a little wider than the box, which shows
+        # where the footprint spans a good part of this 128 × 64 image
+        np.testing.assert_allclose(got[i], want, atol=0.01 if scale[i, 0] <= 32 else 0.04)
 
 
 # -- per-pixel materials in sg and fis ----------------------------------------------------
@@ -156,3 +207,25 @@ def test_textured_halves_render_as_their_uniform_materials(tmp_path, light):
         assert np.abs(half["a"][method][rows][:, left]
                       - half["b"][method][rows][:, left]).mean() > 0.2 * np.abs(
                           half["a"][method][rows][:, left]).mean()
+
+
+def test_linear_parameters_per_texel():
+    """kd = (1 − m)c, F0 = lerp(0.04, c, m), ln r with the factors applied, on the textures'
+    shared grid; none when the two textures' grids differ."""
+    from sgpipe.io.gltf_textures import CLAMP, REPEAT, GltfTexture
+    from sgpipe.render.materials import GltfFactors
+    from sgpipe.render.setup import linear_parameters
+    rng = np.random.default_rng(2)
+    c, mr = rng.random((8, 16, 3)), rng.random((8, 16, 3))
+    g = GltfFactors(np.array([0.5, 1.0, 0.8]), 0.9, 0.7)
+    (a, b), tex = linear_parameters(g, GltfTexture(c), GltfTexture(mr))
+    base, metal, rough = c * g.base_color, 0.9 * mr[..., 2:3], 0.7 * mr[..., 1]
+    np.testing.assert_allclose(a[..., :3], (1 - metal) * base)
+    np.testing.assert_allclose(b[..., :3], 0.04 * (1 - metal) + metal * base)
+    np.testing.assert_allclose(a[..., 3], np.log(np.maximum(rough, 0.06)))
+    assert tex.image is c
+    # only one texture: the other parameters are the factors
+    (a, b), _ = linear_parameters(g, None, GltfTexture(mr))
+    np.testing.assert_allclose(a[..., :3], (1 - metal) * g.base_color)
+    assert linear_parameters(g, GltfTexture(c), GltfTexture(mr, (REPEAT, CLAMP))) is None
+    assert linear_parameters(g, GltfTexture(c), GltfTexture(mr[:4])) is None

@@ -53,9 +53,11 @@ __kernel void fis_shade(FIS_SHADE_ARGS)
     float3 col = (float3)(0.0f);
     float wsum = 0.0f;
     float lw[MAX_NDF_LOBES];
+    float4 la[MAX_NDF_LOBES];     /* the pixel's lobes (axis, λ), read (interpolated) once */
     for (int j = 0; j < nl; ++j) {
         float4 L0, L1;
         ndf_lobe(lobes, m, j, &L0, &L1);
+        la[j] = (float4)(normalize(L0.xyz), L0.w);
         lw[j] = L1.x * sg_integral_unit(L0.w);
         wsum += lw[j];
     }
@@ -88,9 +90,7 @@ __kernel void fis_shade(FIS_SHADE_ARGS)
             int j = 0;
             for (; j < nl - 1; ++j) { if (pick < acc + lw[j]) break; acc += lw[j]; }
             float uu = clamp((pick - acc) / fmax(lw[j], 1e-30f), 0.0f, 0.99999f);
-            float4 L0, L1;
-            ndf_lobe(lobes, m, j, &L0, &L1);
-            float3 h = vmf_sample(normalize(L0.xyz), L0.w, uu, u2);
+            float3 h = vmf_sample(la[j].xyz, la[j].w, uu, u2);
             ip = 2.0f * dot(op, h) * h - op;
         } else {
             float r = sqrt(u1), ph = 2.0f * 3.14159265358979f * u2;
@@ -102,9 +102,7 @@ __kernel void fis_shade(FIS_SHADE_ARGS)
         float oh = dot(op, h);
         float ph_h = 0.0f;
         for (int j = 0; j < nl; ++j) {
-            float4 L0, L1;
-            ndf_lobe(lobes, m, j, &L0, &L1);
-            ph_h += lw[j] / wsum * vmf_pdf(normalize(L0.xyz), L0.w, h);
+            ph_h += lw[j] / wsum * vmf_pdf(la[j].xyz, la[j].w, h);
         }
         float p_s = oh > 0.0f ? ph_h / (4.0f * oh) : 0.0f;
         float p_d = ip.z * 0.318309886f;

@@ -48,11 +48,17 @@ inline float4 tex_level(__global const float4 *texels, int4 info, int lv, float2
     return mix(a, b, fy);
 }
 
-/* A texture at OBJ uv (v = 0 the bottom row) filtered over the pixel's footprint duv =
- * (∂u/∂x, ∂v/∂x, ∂u/∂y, ∂v/∂y) (scene.footprint): the glTF texture transform (aff, rows of its
- * 3×3 matrix on (s, t) = (u, 1 − v); aff[0].w = 0: none), then trilinear between the MIP levels
- * around log2 of the footprint's longer side in texels (OpenGL's isotropic rule); level 0
- * bilinear where the footprint is under a texel or the texture has no chain. */
+/* Bilinear taps per footprint axis at most: a footprint longer than this many texels reads
+ * the MIP level where it is not (tap spacing about one texel of that level). */
+#define TEX_BOX_TAPS 4
+
+/* A texture at OBJ uv (v = 0 the bottom row) averaged over the pixel's footprint: the glTF
+ * texture transform (aff, rows of its 3×3 matrix on (s, t) = (u, 1 − v); aff[0].w = 0: none),
+ * then the parallelogram the pixel's box covers, uv ± ½ (∂uv/∂x) ± ½ (∂uv/∂y) (duv = (∂u/∂x,
+ * ∂v/∂x, ∂u/∂y, ∂v/∂y), scene.footprint), read as n_x × n_y bilinear taps at the centres of
+ * an n_x × n_y grid over it — the reference's box pixel filter over the texture — at the
+ * finest MIP level where neither side needs more than TEX_BOX_TAPS taps of one texel. A
+ * footprint under a texel is one bilinear tap of level 0. */
 inline float4 tex_filtered(__global const float4 *texels, int4 info,
                            __global const float4 *texaff, int k, float2 uv, float4 duv) {
     float2 st = (float2)(uv.x, 1.0f - uv.y);
@@ -65,14 +71,21 @@ inline float4 tex_filtered(__global const float4 *texels, int4 info,
     }
     int levels = info.w & 255;
     float2 sz = (float2)((float)info.y, (float)info.z);
-    float rho = fmax(length(dx * sz), length(dy * sz));
-    float lod = rho > 1.0f ? log2(rho) : 0.0f;
-    lod = fmin(lod, (float)(levels - 1));
-    int l0 = (int)floor(lod);
-    float f = lod - (float)l0;
-    float4 c = tex_level(texels, info, l0, st);
-    if (f > 0.0f && l0 + 1 < levels) c = mix(c, tex_level(texels, info, l0 + 1, st), f);
-    return c;
+    float lx = length(dx * sz), ly = length(dy * sz);     /* the sides in level-0 texels */
+    float need = fmax(lx, ly) / (float)TEX_BOX_TAPS;
+    int lv = need > 1.0f ? min((int)ceil(log2(need)), levels - 1) : 0;
+    float scale = 1.0f / (float)(1 << lv);
+    int nx = clamp((int)ceil(lx * scale - 1e-3f), 1, TEX_BOX_TAPS);
+    int ny = clamp((int)ceil(ly * scale - 1e-3f), 1, TEX_BOX_TAPS);
+    float4 c = (float4)(0.0f);
+    for (int j = 0; j < ny; ++j) {
+        float b = ((float)j + 0.5f) / (float)ny - 0.5f;
+        for (int i = 0; i < nx; ++i) {
+            float a = ((float)i + 0.5f) / (float)nx - 0.5f;
+            c += tex_level(texels, info, lv, st + a * dx + b * dy);
+        }
+    }
+    return c / (float)(nx * ny);
 }
 
 /* Shortest-arc quaternion (x, y, z, w) taking +z to the unit vector n (n.z > −1). */
@@ -177,9 +190,10 @@ typedef struct {
 
 /* A textured gltf_pbr material's record for one pixel (Wang09 §4.1: the model's parameters
  * textured, the reflectance built per pixel), written into the pixel's scratch record r:
- * base colour c, metallic m and roughness from factor × texel (filtered over the footprint),
- * then what the uniform material's packer derives from them (brdf.models.gltf_pbr): kd = (1 −
- * m) c, Schlick F0 = lerp(0.04, c, m), α = max(roughness, 0.06)², α_t = lerp(α, 1, s²),
+ * kd = (1 − m) c, Schlick F0 = lerp(0.04, c, m) and roughness filtered over the footprint (ln r) —
+ * read as such (MAT_SVLIN: textures of these per texel, render.setup.linear_parameters) or
+ * formed from the filtered base colour c and metallic m (factor × texel) — then what the
+ * uniform material's packer derives (brdf.models.gltf_pbr): α = max(roughness, 0.06)², α_t = lerp(α, 1, s²),
  * g_scale = 1/(4 α_t α); the NDF lobes interpolated from the roughness grid (ndf_sg_rough.npz:
  * LOBE0 = the lower entry, SVFRAC the upper one's weight; ndf_lobe) and SV = 1: the exact D
  * analytic at the pixel's α (ndf_exact) instead of the material's table. */
@@ -190,14 +204,23 @@ inline void gltf_pixel_record(__global const float *m, __global float *r,
     float3 c = mat3(m, MAT_BASE);
     float metal = m[MAT_METAL], rough = m[MAT_ROUGH];
     int bt = (int)m[MAT_BCTEX], mt = (int)m[MAT_MRTEX];
-    if (bt >= 0) c *= tex_filtered(texels, texinfo[bt], texaff, bt, uv, duv).xyz;
-    if (mt >= 0) {
-        float4 t = tex_filtered(texels, texinfo[mt], texaff, mt, uv, duv);
-        rough *= t.y;
-        metal *= t.z;
+    float3 kd, f0;
+    if (m[MAT_SVLIN] > 0.5f) {        /* (kd, ln r) and (F0, 0) per texel, factors applied */
+        float4 a = tex_filtered(texels, texinfo[bt], texaff, bt, uv, duv);
+        kd = a.xyz;
+        rough = exp(a.w);              /* the footprint's geometric mean roughness */
+        f0 = tex_filtered(texels, texinfo[mt], texaff, mt, uv, duv).xyz;
+    } else {
+        if (bt >= 0) c *= tex_filtered(texels, texinfo[bt], texaff, bt, uv, duv).xyz;
+        if (mt >= 0) {
+            float4 t = tex_filtered(texels, texinfo[mt], texaff, mt, uv, duv);
+            rough *= t.y;
+            metal *= t.z;
+        }
+        metal = clamp(metal, 0.0f, 1.0f);
+        kd = (1.0f - metal) * c;
+        f0 = mix((float3)(0.04f), c, metal);
     }
-    metal = clamp(metal, 0.0f, 1.0f);
-    float3 kd = (1.0f - metal) * c, f0 = mix((float3)(0.04f), c, metal);
     float rr = fmax(clamp(rough, 0.0f, 1.0f), 0.06f);
     float av = rr * rr, s = m[MAT_ANISO];
     float au = av + (1.0f - av) * s * s;
