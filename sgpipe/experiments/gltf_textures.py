@@ -3,7 +3,8 @@ textured_ball.glb: base colour, roughness 0.05–0.8, sharp metal bands) and a p
 from its normal carrying the same textures, each minified k = 1, 2, 4, 8 and 16 times
 (KHR_texture_transform scale k, samplers repeating: k² times the texels under each pixel),
 rendered under the studio map by `sg` and `fis` (per-pixel parameters from the MIP-filtered
-textures) and by the Monte Carlo `reference` (the unfiltered textures at each sample's hit).
+textures) and by the Monte Carlo `reference` (the unfiltered textures at each sample's hit);
+and, as a control, a sphere in uniform metal and dielectric materials of roughness 0.1–0.9.
 
     python -m sgpipe.experiments.gltf_textures --out out/figures/gltf_textures \\
         --results docs/results/gltf_textures.md
@@ -25,11 +26,17 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 ASSET = ROOT / "data_samples" / "textured_ball.glb"
 STUDIO = ROOT / "data_samples" / "studio.exr"
+SPHERE = ROOT / "data_samples" / "sphere.obj"
+#: the uniform control spheres: metallic × roughness, in a mid paint colour
+UNIFORM_METALLIC = (1.0, 0.0)
+UNIFORM_ROUGHNESS = (0.1, 0.3, 0.5, 0.7, 0.9)
+UNIFORM_BASE = (0.9, 0.6, 0.3)
 MINIFICATIONS = (1, 2, 4, 8, 16)
 METHODS = ("sg", "fis")
 GOAL_DB = 33.0
 CAMERAS = {"ball": "{eye: [0, 0.8, 3.6], target: [0, 0, 0], fov_deg: 36",
            "plane": "{eye: [0, 2.3, 1.93], target: [0, 0, 0], fov_deg: 50"}
+CAMERAS["uniform"] = CAMERAS["ball"]
 
 
 def _plane(doc) -> None:
@@ -81,11 +88,20 @@ def write_variant(subject: str, k: int, path: Path) -> Path:
     return path
 
 
-def _config(glb: Path, subject: str, size: int, spp: int, seed: int, methods) -> str:
+def _config(glb: Path | None, subject: str, size: int, spp: int, seed: int, methods,
+            uniform: tuple[float, float] | None = None) -> str:
+    """One run's config: the glTF file, or (uniform = (metallic, roughness)) the unit sphere in
+    a uniform gltf_pbr material of the asset's mean paint colour."""
+    if uniform is None:
+        scene = f"scene: {{gltf: [{{file: {glb}}}]}}\nfit: {{view_gmm: {{enabled: false}}}}"
+    else:
+        scene = (f"scene: {{objects: [{{name: ball, mesh: {SPHERE}, material: paint}}]}}\n"
+                 f"fit:\n  view_gmm: {{enabled: false}}\n  materials: [{{name: paint, "
+                 f"model: gltf_pbr, params: {{base_color: {list(UNIFORM_BASE)}, metallic: "
+                 f"{uniform[0]}, roughness: {uniform[1]}}}}}]")
     return f"""name: gltf_textures
 seed: {seed}
-scene: {{gltf: [{{file: {glb}}}]}}
-fit: {{view_gmm: {{enabled: false}}}}
+{scene}
 envmap: {{environment: {STUDIO}, cube_resolution: 64}}
 render:
   camera: {CAMERAS[subject]}, width: {size}, height: {size}}}
@@ -107,21 +123,27 @@ def _run(cfg_text: str, work: Path, tag: str) -> Path:
     return out / "render"
 
 
-def measure(subject: str, k: int, work: Path, *, size: int, spp: int) -> dict:
+def measure(subject: str, k: int, work: Path, *, size: int, spp: int,
+            uniform: tuple[float, float] | None = None) -> dict:
     """Surface display PSNR of each method against the two references' mean, the floor, and
-    each method's frame time."""
+    each method's frame time: the subject minified k times, or the uniform control sphere."""
     from sgpipe.io import read_exr
     from sgpipe.metrics import display_psnr, surface_mask
-    glb = write_variant(subject, k, work / f"{subject}_{k}x.glb")
-    a = _run(_config(glb, subject, size, spp, 1, (*METHODS, "reference")), work,
-             f"{subject}_{k}x_a")
-    b = _run(_config(glb, subject, size, spp, 2, ("reference",)), work, f"{subject}_{k}x_b")
+    if uniform is None:
+        glb, tag = write_variant(subject, k, work / f"{subject}_{k}x.glb"), f"{subject}_{k}x"
+    else:
+        glb, tag = None, f"uniform_m{uniform[0]:g}_r{uniform[1]:g}"
+    a = _run(_config(glb, subject, size, spp, 1, (*METHODS, "reference"), uniform), work,
+             f"{tag}_a")
+    b = _run(_config(glb, subject, size, spp, 2, ("reference",), uniform), work, f"{tag}_b")
     ra, rb = (read_exr(d / "reference.exr")[..., :3] for d in (a, b))
     ref = 0.5 * (ra + rb)
     mask = surface_mask(np.load(a / "gbuffer.npz", allow_pickle=False)["object_id"])
     timings = json.loads((a / "timings.json").read_text())
     row = {"subject": subject, "minification": k,
            "floor_db": display_psnr(ra, rb, mask=mask) + 6.02}
+    if uniform is not None:
+        row.update(metallic=uniform[0], roughness=uniform[1])
     for m in METHODS:
         row[m] = {"surface_display_psnr_db": display_psnr(read_exr(a / f"{m}.exr")[..., :3],
                                                           ref, mask=mask),
@@ -139,12 +161,23 @@ def report(rows: list[dict], size: int, spp: int) -> str:
              f"{spp}-spp references; floor: the two references against each other + 6 dB. "
              f"Goal: sg ≥ {GOAL_DB:.0f} dB.", "",
              "| subject | k | sg | fis | floor | sg ms | fis ms |", "|---|---|---|---|---|---|---|"]
-    for r in rows:
+    textured = [r for r in rows if r["subject"] != "uniform"]
+    controls = [r for r in rows if r["subject"] == "uniform"]
+    for r in textured:
         lines.append(f"| {r['subject']} | {r['minification']}× | "
                      f"{r['sg']['surface_display_psnr_db']:.1f} | "
                      f"{r['fis']['surface_display_psnr_db']:.1f} | {r['floor_db']:.1f} | "
                      f"{r['sg']['frame_ms']:.0f} | {r['fis']['frame_ms']:.0f} |")
-    worst = min(rows, key=lambda r: r["sg"]["surface_display_psnr_db"])
+    if controls:
+        lines += ["", "Control: the unit sphere in a uniform `gltf_pbr` material (base colour "
+                  f"{list(UNIFORM_BASE)}), same camera, map and references — what each method "
+                  "reaches on one material of the textures' range before any filtering:", "",
+                  "| metallic | roughness | sg | fis | floor |", "|---|---|---|---|---|"]
+        for r in controls:
+            lines.append(f"| {r['metallic']:g} | {r['roughness']:g} | "
+                         f"{r['sg']['surface_display_psnr_db']:.1f} | "
+                         f"{r['fis']['surface_display_psnr_db']:.1f} | {r['floor_db']:.1f} |")
+    worst = min(textured, key=lambda r: r["sg"]["surface_display_psnr_db"])
     met = worst["sg"]["surface_display_psnr_db"] >= GOAL_DB
     lines += ["", f"sg's worst cell: {worst['subject']} {worst['minification']}×, "
               f"{worst['sg']['surface_display_psnr_db']:.1f} dB — the goal is "
@@ -160,18 +193,22 @@ def main(argv=None) -> int:
     ap.add_argument("--results", type=Path, default=None, help="Markdown page to write")
     ap.add_argument("--size", type=int, default=128)
     ap.add_argument("--spp", type=int, default=512)
-    ap.add_argument("--subjects", nargs="+", default=["ball", "plane"])
+    ap.add_argument("--subjects", nargs="+", default=["ball", "plane", "uniform"],
+                    help="ball, plane (minified) and uniform (the control spheres)")
     ap.add_argument("--minifications", nargs="+", type=int, default=list(MINIFICATIONS))
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     rows = []
-    for subject in a.subjects:
-        for k in a.minifications:
-            row = measure(subject, k, a.out, size=a.size, spp=a.spp)
-            rows.append(row)
-            print(f"[gltf_textures] {subject} {k}x: " + ", ".join(
-                f"{m} {row[m]['surface_display_psnr_db']:.2f} dB" for m in METHODS)
-                + f" (floor {row['floor_db']:.1f})", flush=True)
+    jobs = [(s, k, None) for s in a.subjects if s != "uniform" for k in a.minifications]
+    if "uniform" in a.subjects:
+        jobs += [("uniform", 1, (m, r)) for m in UNIFORM_METALLIC for r in UNIFORM_ROUGHNESS]
+    for subject, k, uniform in jobs:
+        row = measure(subject, k, a.out, size=a.size, spp=a.spp, uniform=uniform)
+        rows.append(row)
+        what = f"{k}x" if uniform is None else f"metallic {uniform[0]:g} roughness {uniform[1]:g}"
+        print(f"[gltf_textures] {subject} {what}: " + ", ".join(
+            f"{m} {row[m]['surface_display_psnr_db']:.2f} dB" for m in METHODS)
+            + f" (floor {row['floor_db']:.1f})", flush=True)
     (a.out / "gltf_textures.json").write_text(json.dumps(rows, indent=1))
     if a.results is not None:
         a.results.parent.mkdir(parents=True, exist_ok=True)
