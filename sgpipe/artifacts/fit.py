@@ -204,6 +204,18 @@ class RoughLobes:
     amplitude: np.ndarray               # (R, K)
 
 
+def rough_lobes_at(alpha, sharpness, amplitude, a: float) -> tuple[np.ndarray, np.ndarray]:
+    """(λ (K,), μ (K,)) of a roughness grid at α = a: ln λ and μ linear in ln α between its
+    entries (the kernels' shading.h ndf_lobe); a clamped to the grid."""
+    g = np.log(np.asarray(alpha, float))
+    lam, mu = np.asarray(sharpness, float), np.asarray(amplitude, float)
+    x = np.clip(np.log(a), g[0], g[-1])
+    i = int(min(np.searchsorted(g, x, side="right") - 1, len(g) - 2))
+    t = (x - g[i]) / (g[i + 1] - g[i])
+    return (np.exp((1 - t) * np.log(lam[i]) + t * np.log(lam[i + 1])),
+            (1 - t) * mu[i] + t * mu[i + 1])
+
+
 def read_ndf_sg_rough(folder: str | Path, material: str) -> RoughLobes | None:
     """`ndf_sg_rough.npz` of one material, or None where the fit wrote none."""
     path = Path(folder) / NDF_SG_ROUGH

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
+from sgpipe.artifacts.fit import rough_lobes_at
 from sgpipe.fit.ndf_sg import _iso_model, fit_iso_lm, iso_quadrature, rel_l2
 
 #: Grid entries, and the α range: glTF roughness 0.06–1 (brdf.models.GLTF_MIN_ROUGHNESS), α =
@@ -52,13 +53,7 @@ class RoughGrid:
     def lobes_at(self, alpha: float) -> tuple[np.ndarray, np.ndarray]:
         """(λ (K,), μ (K,)) at α: ln λ and μ linear in ln α between grid entries (the kernels'
         shading.h ndf_lobe); α clamped to the grid."""
-        g = np.log(self.alpha)
-        x = np.clip(np.log(alpha), g[0], g[-1])
-        i = int(min(np.searchsorted(g, x, side="right") - 1, len(g) - 2))
-        t = (x - g[i]) / (g[i + 1] - g[i])
-        lam = np.exp((1 - t) * np.log(self.sharpness[i]) + t * np.log(self.sharpness[i + 1]))
-        mu = (1 - t) * self.amplitude[i] + t * self.amplitude[i + 1]
-        return lam, mu
+        return rough_lobes_at(self.alpha, self.sharpness, self.amplitude, alpha)
 
     def arrays(self) -> dict:
         f = np.float32

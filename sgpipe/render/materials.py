@@ -17,7 +17,8 @@ from sgpipe.artifacts import fit as contract
 from sgpipe.artifacts import scalar
 from sgpipe.core.asg import x_angle
 from sgpipe.errors import BadInput
-from sgpipe.render.records import (ANISO, AU, AV, BASE, BCTEX, DIFFUSE, ETA, F0, FRESNEL, GMM,
+from sgpipe.render.records import (ANISO, AU, AV, BASE, BCTEX, DIFFUSE, ETA, ETAB, ETGRID, F0,
+                                   FRESNEL, GMM, WARPN,
                                    GMM_FLAGS, GMM_K, GMM_NP, GMM_NT, GMM_TMAX, GSCALE, K, KD,
                                    KDTEX, KS, KSTEX, LOBE0, MAT_STRIDE, METAL, MRTEX, NLOBES,
                                    ROUGH, SHADOW, STAB, SVA0, SVA1, SVLIN, SVLOB, SVN,
@@ -79,6 +80,9 @@ class Material:
     ks_texture: int = -1
     gltf: "GltfFactors | None" = None    # a textured gltf_pbr material (per-pixel parameters)
     rough_grid: object | None = None     # ndf_sg_rough.npz (artifacts.fit.RoughLobes)
+    energy: np.ndarray | None = None     # sg's energy table (ENERGY_VIEWS,) (render.energy)
+    energy_grid: np.ndarray | None = None  # ... per roughness-grid entry (ENERGY_VIEWS, R, 4)
+    exact_warp: bool = False             # sg's exact warped lobe mass (render.energy, WARPN)
 
     @classmethod
     def lambert(cls, name: str, kd) -> "Material":
@@ -231,7 +235,16 @@ def pack_materials(materials: list[Material]) -> MaterialTable:
             n_gmm += len(rows)
             max_k = max(max_k, kl)
         r[KDTEX], r[KSTEX] = m.kd_texture, m.ks_texture
-        r[BCTEX] = r[MRTEX] = r[SVLOB] = -1
+        r[BCTEX] = r[MRTEX] = r[SVLOB] = r[ETAB] = r[ETGRID] = -1
+        r[WARPN] = float(m.exact_warp)
+        for slot, tab in ((ETAB, m.energy), (ETGRID, m.energy_grid)):
+            if tab is not None:
+                pad = -n_tab % 4               # the kernels read these rows as float4
+                tables.append(np.zeros(pad, np.float32))
+                n_tab += pad
+                r[slot] = n_tab
+                tables.append(np.asarray(tab, np.float32).reshape(-1))
+                n_tab += tab.size
         g = m.gltf
         if g is not None:
             r[BASE:BASE + 3] = g.base_color

@@ -101,6 +101,9 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
         m.gltf = _gltf_factors(gltf_textures(cfg, o, assets), textures)
         names.append(o.material)
         mats.append(m)
+    if any(x.name in ("sg", "sg_wang09") for x in methods):
+        from sgpipe.render.energy import attach_energy
+        attach_energy(mats)          # sg's energy tables of GGX materials
     shading = []
     for k, o in enumerate(cfg.scene.objects):
         nmap = -1

@@ -140,7 +140,7 @@ def write_ndf_sg(run, name: str, brdf, spec, seed: int) -> dict:
         an = fit_ndf_sg(ndf, method="analytic")
         rep["analytic"] = {"sharpness": float(an.sharpness[0]),
                            "amplitude": float(an.amplitude[0]), "rel_l2": an.rel_l2}
-    if getattr(brdf, "name", None) == "gltf_pbr" and ndf.isotropic:
+    if getattr(brdf, "name", None) in ("gltf_pbr", "ggx") and ndf.isotropic:
         rep["roughness_grid"] = write_ndf_sg_rough(run, name)
     if spec.anisotropic == "asg" and not ndf.isotropic:
         asg, rep["asg"] = ndf_asg(ndf, spec.asg_lobes)
@@ -153,8 +153,9 @@ def write_ndf_sg(run, name: str, brdf, spec, seed: int) -> dict:
 
 
 def write_ndf_sg_rough(run, name: str) -> dict:
-    """ndf_sg_rough.npz of an isotropic gltf_pbr material (its roughness may come from a
-    texture: Wang09 §4.1's per-pixel lobes) and its part of the report."""
+    """ndf_sg_rough.npz of an isotropic GGX material (gltf_pbr, whose roughness may come from
+    a texture: Wang09 §4.1's per-pixel lobes; ggx): the lobes per roughness, which `sg` also
+    renders a uniform one with (render.energy), and its part of the report."""
     from sgpipe.brdf.ndf import GGXNDF
     from sgpipe.fit.ndf_sg_rough import fit_roughness_grid
     grid = fit_roughness_grid(GGXNDF)

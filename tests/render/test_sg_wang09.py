@@ -85,8 +85,9 @@ def test_every_improvement_given_back_is_sg_and_each_one_matters():
     np.testing.assert_array_equal(full, sg)
     pub = Renderer(**kw).shade("sg_wang09", fr)
     for name in WANG09_SWITCHES:
-        if name == "asg":
-            continue                                # the material has no ASG lobes
+        if name in ("asg", "energy"):
+            continue        # the material has no ASG lobes and is not GGX (no energy table:
+            # tests/render/test_energy.py gives `energy` back on one)
         one = Renderer(**kw, sg_wang09_adds=(name,)).shade("sg_wang09", fr)
         assert np.abs(one - pub).max() > 1e-3 * np.abs(pub).max(), name
 

@@ -33,6 +33,9 @@
 #include "cubemap.h"
 #include "microfacet.h"
 #include "shading.h"   /* records.h, methods.h, the SSDF state Vis */
+/* the lobes' own energy: transport's visibility ratio R scales E_pix as sg's lobes give it
+ * (render.energy's table is sg's) */
+#define SG_NO_ENERGY 1
 #include "sg_specular.h"
 #include "transport.h"
 

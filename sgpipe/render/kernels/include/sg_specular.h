@@ -12,13 +12,42 @@
 #define SPEC_SUBLOBES 3
 #endif
 
+/* E[max(0, u)], u = p·z over the normalised lobe of sharpness λ whose axis makes cos c with
+ * z, taken as Gaussian with the lobe's exact mean m = c·A(λ) (A = coth λ − 1/λ) and variance
+ * v = c²(1 − 2A/λ) + (1 − c²)A/λ − m²: mΦ(m/σ) + σφ(m/σ); *phi gets Φ(m/σ). */
+inline float sg_clamped_cos_mean(float c, float lam, float *phi) {
+    float s2 = fmax(1.0f - c * c, 0.0f);
+    float A = mean_resultant(lam);
+    float b = A / lam;
+    float mu_u = c * A;
+    float sd = sqrt(fmax(c * c * (1.0f - 2.0f * b) + s2 * b - mu_u * mu_u, 0.0f)) + 1e-7f;
+    float z = mu_u / sd;
+    *phi = 0.5f * erfc(-0.70710678f * z);
+    return mu_u * *phi + sd * 0.39894228f * exp(-0.5f * z * z);
+}
+
+/* G(i; p, λ, μ)·max(0, i·z) ≈ E[max(0, u)]·G(i; p', λ, μ) (replaces C* ⊗ G of eq 41, whose ±17 %
+ * shape error dominated sharp lobes): E[max(0, u)] of sg_clamped_cos_mean, and p' is p tilted
+ * towards z by the cosine-weighted mean offset δ = √(1 − c²)/λ · Φ(m/σ)/E[max(0, u)] (Stein). */
+inline SG spec_cosine(SG g) {
+    float c = clamp(g.p.z, -1.0f, 1.0f);
+    float s2 = fmax(1.0f - c * c, 0.0f);
+    float Phi;
+    float eu = sg_clamped_cos_mean(c, g.lam, &Phi);
+    float delta = eu > 1e-12f ? sqrt(s2) / g.lam * Phi / eu : 0.0f;
+    float3 nt = (float3)(0.0f, 0.0f, 1.0f) - c * g.p;
+    float ln = length(nt);
+    float3 p = ln > 1e-7f ? normalize(g.p + (delta / ln) * nt) : g.p;   /* tilt by atan δ ≈ δ */
+    return sg_make(p, g.lam, g.mu * eu);
+}
+
 /* Wang09 eq 17–20 with the warp's anisotropy kept: an NDF lobe G(h; g, λ, μ) seen from o maps
  * to i-space around p = reflect(o, g) with sharpness λ/4 in the plane of incidence and
  * λ/(4(o·g)²) across it (Jacobian of h = (o + i)/‖o + i‖; Wang09's isotropic λ/(4|o·g|) is
  * their geometric mean). SPEC_SUBLOBES = 3: Gauss–Hermite sum of three isotropic lobes of the
  * across sharpness, at 0, ±√3·σ_s along the plane (σ_s² = 4(1 − (o·g)²)/λ), weights 1/6, 2/3,
  * 1/6 over o·g (same integral); SPEC_SUBLOBES = 1: Wang09's isotropic lobe. */
-inline void spec_warp(SG g, float3 o, SG *sub) {
+inline void spec_warp(SG g, float3 o, SG *sub, int exact_mass) {
     SG w = sg_warp(g, o);
 #if SPEC_SUBLOBES == 3
     float og = fmax(fabs(dot(o, g.p)), 1e-3f);
@@ -29,8 +58,17 @@ inline void spec_warp(SG g, float3 o, SG *sub) {
     ex = le > 1e-7f ? ex / le : (float3)(1.0f, 0.0f, 0.0f);
     float3 ea = normalize(cross(w.p, ex));    /* in the plane of incidence, ⊥ p */
     float a = 1.7320508f * sig;
+    if (exact_mass) a = fmin(a, 1.5707963f);
     float ca = cos(a), sa = sin(a);
-    float3 mu = w.mu / og;
+    /* exact_mass (GGX materials with an energy table, MAT_WARPN): the sub-lobes carry the
+     * warped lobe's integral ∫ G(h) |∂i/∂h| dh = 4 I(λ) E[max(0, o·h)] (I: the SG integral),
+     * which is I(λ_x)·μ/(o·g) for a narrow lobe; with μ/(o·g), a broad lobe (rough GGX) gains
+     * that 1/(o·g) at grazing views (×20 at o·g = 0.05), and its side sub-lobes stay ≤ 90° off */
+    float phi;
+    float3 mu = exact_mass ? w.mu * (4.0f * sg_integral_unit(g.lam)
+                                     * sg_clamped_cos_mean(og, g.lam, &phi)
+                                     / sg_integral_unit(lam_x))
+                           : w.mu / og;
     sub[0] = sg_make(w.p, lam_x, mu * (2.0f / 3.0f));
     sub[1] = sg_make(normalize(ca * w.p + sa * ea), lam_x, mu * (1.0f / 6.0f));
     sub[2] = sg_make(normalize(ca * w.p - sa * ea), lam_x, mu * (1.0f / 6.0f));
@@ -39,26 +77,38 @@ inline void spec_warp(SG g, float3 o, SG *sub) {
 #endif
 }
 
-/* G(i; p, λ, μ)·max(0, i·z) ≈ E[max(0, u)]·G(i; p', λ, μ) (replaces C* ⊗ G of eq 41, whose ±17 %
- * shape error dominated sharp lobes): u = i·z over the normalised lobe taken as Gaussian with
- * the lobe's exact mean m = c·A(λ) (c = p·z, A = coth λ − 1/λ) and variance
- * v = c²(1 − 2A/λ) + (1 − c²)A/λ − m², so E[max(0, u)] = mΦ(m/σ) + σφ(m/σ); p' is p tilted
- * towards z by the cosine-weighted mean offset δ = √(1 − c²)/λ · Φ(m/σ)/E[max(0, u)] (Stein). */
-inline SG spec_cosine(SG g) {
-    float c = clamp(g.p.z, -1.0f, 1.0f);
-    float s2 = fmax(1.0f - c * c, 0.0f);
-    float A = mean_resultant(g.lam);
-    float b = A / g.lam;
-    float mu_u = c * A;
-    float sd = sqrt(fmax(c * c * (1.0f - 2.0f * b) + s2 * b - mu_u * mu_u, 0.0f)) + 1e-7f;
-    float z = mu_u / sd;
-    float Phi = 0.5f * erfc(-0.70710678f * z);
-    float eu = mu_u * Phi + sd * 0.39894228f * exp(-0.5f * z * z);
-    float delta = eu > 1e-12f ? sqrt(s2) / g.lam * Phi / eu : 0.0f;
-    float3 nt = (float3)(0.0f, 0.0f, 1.0f) - c * g.p;
-    float ln = length(nt);
-    float3 p = ln > 1e-7f ? normalize(g.p + (delta / ln) * nt) : g.p;   /* tilt by atan δ ≈ δ */
-    return sg_make(p, g.lam, g.mu * eu);
+/* The material's energy factor per channel at view elevation cos_o (render.energy): per view
+ * (a1, a2, s1, s2), the exact albedo and the lobes' white-furnace response for F ≡ 1 and for
+ * F = (1 − o·h)⁵, linear in cos θ_o — the material's table, or for a textured pixel (MAT_SV)
+ * its roughness grid's, bilinear over (view, grid entry) — then (F0 a1 + (1 − F0) a2) /
+ * (F0 s1 + (1 − F0) s2) with Schlick's F0 (a1 / s1 for another Fresnel); 1 without a table. */
+inline float3 sg_energy(__global const float *m, __global const float *tables, float cos_o) {
+#ifdef SG_NO_ENERGY
+    return (float3)(1.0f);
+#else
+    float x = (clamp(cos_o, ENERGY_COS_MIN, 1.0f) - ENERGY_COS_MIN) / (1.0f - ENERGY_COS_MIN)
+              * (float)(ENERGY_VIEWS - 1);
+    int v0 = min((int)floor(x), ENERGY_VIEWS - 2);
+    float fv = x - (float)v0;
+    float4 e;
+    if (m[MAT_SV] > 0.5f) {
+        if (m[MAT_ETGRID] < 0.0f || m[MAT_SVLOB] < 0.0f) return (float3)(1.0f);
+        int ne = (int)m[MAT_SVN];
+        int e0 = (int)((m[MAT_LOBE0] - m[MAT_SVLOB]) / m[MAT_SVSTEP] + 0.5f);
+        int e1 = min(e0 + 1, ne - 1);
+        float fe = m[MAT_SVFRAC];
+        __global const float4 *t = (__global const float4 *)(tables + (int)m[MAT_ETGRID]);
+        e = mix(mix(t[v0 * ne + e0], t[v0 * ne + e1], fe),
+                mix(t[(v0 + 1) * ne + e0], t[(v0 + 1) * ne + e1], fe), fv);
+    } else {
+        if (m[MAT_ETAB] < 0.0f) return (float3)(1.0f);
+        __global const float4 *t = (__global const float4 *)(tables + (int)m[MAT_ETAB]);
+        e = mix(t[v0], t[v0 + 1], fv);
+    }
+    if ((int)m[MAT_FRESNEL] != 1) return (float3)(e.x / fmax(e.z, 1e-6f));
+    float3 f0 = mat3(m, MAT_F0);
+    return (f0 * e.x + (1.0f - f0) * e.y) / fmax(f0 * e.z + (1.0f - f0) * e.w, 1e-6f);
+#endif
 }
 
 /* Σ over the material's lobes of its specular sub-lobes (spec_warp / asg.h, × M_o, spec_cosine
@@ -79,7 +129,7 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
                                 __global const float4 *pyr_pts, int n_pts, float env_scale,
                                 __global const float4 *lights, int n_lights,
                                 const float3 *e_sharp) {
-    float3 rs = (float3)(0.0f);
+    float3 rs = (float3)(0.0f), renv = (float3)(0.0f);
 #ifdef W09_CSTAR_SPEC
     SG cosq = sg_clamped_cosine((float3)(0.0f, 0.0f, 1.0f));   /* C*(z+) of the rotated frame */
 #endif
@@ -97,7 +147,12 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
         if (j < nl) {
             float4 L0, L1;
             ndf_lobe(lobes, m, j, &L0, &L1);
-            spec_warp(sg_make(normalize(L0.xyz), L0.w, (float3)(L1.x)), op, sub);
+#ifdef SG_NO_ENERGY
+            spec_warp(sg_make(normalize(L0.xyz), L0.w, (float3)(L1.x)), op, sub, 0);
+#else
+            spec_warp(sg_make(normalize(L0.xyz), L0.w, (float3)(L1.x)), op, sub,
+                      m[MAT_WARPN] > 0.5f);
+#endif
         } else {
             int a = lobe0 + nsg + 1 + (j - nl);
             plan = asg_plan(lobes[2 * a], lobes[2 * a + 1], op);
@@ -128,7 +183,7 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
                 float th = clamp(th0 + (el - el0), -1.5707963f, 1.5707963f);
                 SG sv = sg_times_visibility(s, th);
                 float3 pw = normalize(to_world(sv.p, T, B, N));
-                rs += sv.mu * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam,
+                renv += sv.mu * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam,
                                                             pyr_n, pyr_log_ratio, env_mean.xyz,
                                                             pyr_raw, raw_n, pw, sv.lam)
                                            + (exact_pts ? (float3)(0.0f)
@@ -156,7 +211,8 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
             }
         }
     }
-    return rs;
+    /* the environment's part scaled to the BRDF's exact energy at this view (render.energy) */
+    return rs + (env ? sg_energy(m, tables, op.z) : 1.0f) * renv;
 }
 
 #endif
