@@ -136,6 +136,20 @@ def qualifies(m) -> bool:
                  or (m.rough_grid is not None and _broad_enough(m.rough_grid.sharpness))))
 
 
+def adopt_grid_lobes(m) -> None:
+    """A GGX material whose fitted lobes include one near λ = 0 takes its roughness grid's lobes
+    at its α instead (a textured pixel's of that roughness; the grid's sharpness floor keeps
+    sg's response smooth in the view). Every method reading the lobes sees the same ones."""
+    g = m.rough_grid
+    if (g is None or int(m.shadowing) not in GGX_SHADOWING or m.alpha_u != m.alpha_v
+            or _broad_enough(m.lobe_lambda) or not _broad_enough(g.sharpness)
+            or len(m.lobe_lambda) == 0 or len(m.asg_lambda) > 0):
+        return
+    lam, mu = rough_lobes_at(g.alpha, g.sharpness, g.amplitude, float(m.alpha_u))
+    m.lobe_axis = np.tile([0.0, 0.0, 1.0], (len(lam), 1))
+    m.lobe_lambda, m.lobe_mu = lam, mu
+
+
 def attach_energy(materials: list) -> None:
     """Set `energy` (ENERGY_VIEWS, 4) and, with a roughness grid, `energy_grid` (ENERGY_VIEWS,
     R, 4) on every qualifying material: per view the exact albedos (a1: F ≡ 1, a2: F =
@@ -146,13 +160,8 @@ def attach_energy(materials: list) -> None:
     for m in materials:
         if not qualifies(m):
             continue
+        adopt_grid_lobes(m)
         g = m.rough_grid
-        if not _broad_enough(m.lobe_lambda):
-            # its fit has a lobe near λ = 0: the grid's lobes at its α instead (a textured
-            # pixel's of that roughness)
-            lam, mu = rough_lobes_at(g.alpha, g.sharpness, g.amplitude, float(m.alpha_u))
-            m.lobe_axis = np.tile([0.0, 0.0, 1.0], (len(lam), 1))
-            m.lobe_lambda, m.lobe_mu = lam, mu
         if g is not None and not _broad_enough(g.sharpness):
             g = None
         jobs.append((m, None, float(m.alpha_u), (m.lobe_lambda, m.lobe_mu)))

@@ -101,8 +101,10 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
         m.gltf = _gltf_factors(gltf_textures(cfg, o, assets), textures)
         names.append(o.material)
         mats.append(m)
+    from sgpipe.render.energy import adopt_grid_lobes, attach_energy
+    for m in mats:                   # whichever methods run: they read the same lobes
+        adopt_grid_lobes(m)
     if any(x.name in ("sg", "sg_wang09") for x in methods):
-        from sgpipe.render.energy import attach_energy
         attach_energy(mats)          # sg's energy tables of GGX materials
     shading = []
     for k, o in enumerate(cfg.scene.objects):
