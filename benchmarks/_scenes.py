@@ -25,8 +25,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def gltf_materials(textured: bool):
     """The glTF metal-rough material of the textured-asset frame, (materials, Textures): its
-    fitted lobes (fit.ndf_sg auto) and roughness grid; textured: a 256² base colour of tiled
-    paints and a metallic-roughness texture (roughness 0.05–0.8 along u, metal bands in v)."""
+    fitted lobes (fit.ndf_sg auto), sg's energy tables and, textured, its roughness grid, a
+    256² base colour of tiled paints and a metallic-roughness texture (roughness 0.05–0.8
+    along u, metal bands in v)."""
     from sgpipe.brdf import make_brdf
     from sgpipe.brdf.ndf import GGXNDF
     from sgpipe.fit.ndf_sg import fit_ndf_sg
@@ -50,6 +51,8 @@ def gltf_materials(textured: bool):
         mr = np.stack([np.zeros_like(u), 0.05 + 0.75 * u, (v * 6).astype(int) % 2], -1)
         m.gltf = GltfFactors(np.ones(3), 1.0, 1.0, 0.0, tex.add(base, mip=True),
                              tex.add(mr, mip=True))
+    from sgpipe.render.energy import attach_energy
+    attach_energy([m])             # sg's energy tables, as the render stage attaches them
     return [m], tex
 
 
