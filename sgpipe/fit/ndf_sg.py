@@ -100,14 +100,14 @@ def _iso_model(p, c):
     return e, lam, mu
 
 
-def fit_iso_lm(cos_t, values, weights, n_lobes: int, lam0: float) -> tuple[np.ndarray, np.ndarray]:
-    """Levenberg–Marquardt (scipy `least_squares(method='lm')`) fit of n SG lobes about +z to an
-    isotropic function D(cos θ); several starts spread around λ0. Returns (λ, μ) by sharpness."""
+def iso_residuals(cos_t, values, weights):
+    """(residual, Jacobian) of the isotropic model's weighted least squares in p = (ln λ, ln μ)
+    per lobe, for scipy's `least_squares`."""
     sw = np.sqrt(weights)
 
     def res(p):
         # a trial step can overflow e^p for very sharp NDFs: its residual is then not finite
-        # and Levenberg–Marquardt rejects the step, so the overflow is not worth a warning
+        # and the solver rejects the step, so the overflow is not worth a warning
         with np.errstate(over="ignore", invalid="ignore"):
             e, _, mu = _iso_model(p, cos_t)
             return sw * (e @ mu - values)
@@ -118,6 +118,13 @@ def fit_iso_lm(cos_t, values, weights, n_lobes: int, lam0: float) -> tuple[np.nd
         j[:, 0::2] = sw[:, None] * e * mu * lam * (cos_t[:, None] - 1.0)
         j[:, 1::2] = sw[:, None] * e * mu
         return j
+    return res, jac
+
+
+def fit_iso_lm(cos_t, values, weights, n_lobes: int, lam0: float) -> tuple[np.ndarray, np.ndarray]:
+    """Levenberg–Marquardt (scipy `least_squares(method='lm')`) fit of n SG lobes about +z to an
+    isotropic function D(cos θ); several starts spread around λ0. Returns (λ, μ) by sharpness."""
+    res, jac = iso_residuals(cos_t, values, weights)
 
     best = None
     for spread in (2.0, 4.0, 8.0):

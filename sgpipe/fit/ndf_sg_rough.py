@@ -22,7 +22,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from sgpipe.artifacts.fit import rough_lobes_at
-from sgpipe.fit.ndf_sg import _iso_model, fit_iso_lm, iso_quadrature, rel_l2
+from sgpipe.fit.ndf_sg import fit_iso_lm, iso_quadrature, iso_residuals, rel_l2
 
 #: Grid entries, and the α range: glTF roughness 0.06–1 (brdf.models.GLTF_MIN_ROUGHNESS), α =
 #: roughness²
@@ -73,20 +73,7 @@ def _lm_from(c, w, d, lam, mu) -> tuple[np.ndarray, np.ndarray]:
     """One bounded least-squares run (trust region) of ndf_sg's isotropic model from (λ, μ):
     bounded so that a lobe the NDF no longer needs (D is flat at α = 1) keeps a finite ln μ
     and ln λ to interpolate."""
-    sw = np.sqrt(w)
-
-    def res(p):
-        with np.errstate(over="ignore", invalid="ignore"):
-            e, _, m = _iso_model(p, c)
-            return sw * (e @ m - d)
-
-    def jac(p):
-        e, lm, m = _iso_model(p, c)
-        j = np.empty((c.size, p.size))
-        j[:, 0::2] = sw[:, None] * e * m * lm * (c[:, None] - 1.0)
-        j[:, 1::2] = sw[:, None] * e * m
-        return j
-
+    res, jac = iso_residuals(c, d, w)
     lo = np.ravel(np.column_stack([np.full(len(lam), np.log(_LAM_MIN)),
                                    np.full(len(lam), np.log(_MU_MIN))]))
     hi = np.ravel(np.column_stack([np.full(len(lam), np.log(_LAM_MAX)),

@@ -170,12 +170,21 @@ def attach_energy(materials: list) -> None:
                 jobs.append((m, i, a, (g.sharpness[i], g.amplitude[i])))
     if not jobs:
         return
-    resp = _sg_furnace([_furnace_material(m, a, lb) for m, _, a, lb in jobs])
+    # one furnace pixel set and quadrature per distinct (G2 kind, α, lobes): the roughness
+    # grids of a file's glTF materials are the same grid
+    keys = [(int(m.shadowing), a, np.asarray(lb, np.float64).tobytes()) for m, _, a, lb in jobs]
+    unique = list(dict.fromkeys(keys))
+    first = {k: keys.index(k) for k in unique}
+    resp = dict(zip(unique, _sg_furnace([_furnace_material(jobs[first[k]][0], k[1],
+                                                           jobs[first[k]][3])
+                                         for k in unique])))
     c = view_cosines()
+    rows_of = {k: np.concatenate([exact_albedo(k[1], c, k[0]), resp[k]], 1).astype(np.float32)
+               for k in unique}
     for m, *_ in jobs:
         m.exact_warp = True
-    for (m, col, a, _), s in zip(jobs, resp):
-        rows = np.concatenate([exact_albedo(a, c, int(m.shadowing)), s], 1).astype(np.float32)
+    for (m, col, a, _), k in zip(jobs, keys):
+        rows = rows_of[k]
         if col is None:
             m.energy = rows
         else:

@@ -174,3 +174,32 @@ def textured_quad(base_img=None, mr_img=None, *, base=(1.0, 1.0, 1.0), metallic=
                   extensionsRequired=[])
     doc.set_binary_blob(blob)
     return doc
+
+
+#: the two-material quad's halves: base colours (sRGB) and (roughness, metallic)
+HALF_A, HALF_B = np.array([0.8, 0.3, 0.1]), np.array([0.1, 0.4, 0.9])
+HALF_MATERIALS = {"a": (HALF_A, 0.3, 0.0), "b": (HALF_B, 0.7, 1.0)}
+
+
+def halves(a, b, size=32) -> np.ndarray:
+    """A size² image whose left half is a and right half b (the seam at column size / 2)."""
+    img = np.empty((size, size, 3))
+    img[:, : size // 2] = a
+    img[:, size // 2:] = b
+    return img
+
+
+def halves_quads(folder: Path) -> tuple[Path, dict[str, Path]]:
+    """The textured quad whose halves are two materials (left: base HALF_A, roughness 0.3,
+    dielectric; right: HALF_B, roughness 0.7, metal) and, per half, the uniform quad of that
+    material at its texels' 8-bit values: (textured .glb, {"a": .glb, "b": .glb})."""
+    from sgpipe.io.png import srgb_to_linear
+    mr = halves([0, 0.3, 0.0], [0, 0.7, 1.0])
+    tex = write_glb(textured_quad(halves(HALF_A, HALF_B), mr), folder / "tex.glb")
+    uniform = {}
+    for tag, (c, r, m) in HALF_MATERIALS.items():
+        lin = srgb_to_linear(np.round(c * 255) / 255)          # the PNG's 8 bits
+        uniform[tag] = write_glb(textured_quad(base=tuple(lin), metallic=m,
+                                               roughness=np.round(r * 255) / 255),
+                                 folder / f"{tag}.glb")
+    return tex, uniform

@@ -14,23 +14,13 @@ import pytest
 from sgpipe.brdf.ndf import GGXNDF
 from sgpipe.fit.ndf_sg import fit_ndf_sg
 from sgpipe.fit.ndf_sg_rough import fit_roughness_grid
-from sgpipe.io.png import srgb_to_linear
 from sgpipe.render.textures import Textures, mip_chain
 
 sys.path.insert(0, str(Path(__file__).parent))
 sys.path.insert(0, str(Path(__file__).parents[1] / "render"))
 import gltf_builder as gb  # noqa: E402
 
-A = np.array([0.8, 0.3, 0.1])
-B = np.array([0.1, 0.4, 0.9])
 STUDIO = Path(__file__).resolve().parents[2] / "data_samples" / "studio.exr"
-
-
-def _halves(a, b, size=32) -> np.ndarray:
-    img = np.empty((size, size, 3))
-    img[:, : size // 2] = a
-    img[:, size // 2:] = b
-    return img
 
 
 # -- the roughness grid -------------------------------------------------------------------
@@ -182,16 +172,9 @@ def test_textured_halves_render_as_their_uniform_materials(tmp_path, light):
     under a point light exactly (the exact BRDF at the light: analytic D vs the uniform
     material's table), under the environment within the roughness grid's lobes against the
     uniform material's own fit."""
-    mr = _halves([0, 0.3, 0.0], [0, 0.7, 1.0])
-    tex = gb.write_glb(gb.textured_quad(_halves(A, B), mr), tmp_path / "tex.glb")
+    tex, uniform = gb.halves_quads(tmp_path)
     img = _render(tmp_path, tex, "tex", light)
-    lin = lambda c: srgb_to_linear(np.round(c * 255) / 255)   # noqa: E731 - the PNG's 8 bits
-    half = {}
-    for tag, c, r, m in (("a", A, np.round(0.3 * 255) / 255, 0.0),
-                         ("b", B, np.round(0.7 * 255) / 255, 1.0)):
-        glb = gb.write_glb(gb.textured_quad(base=tuple(lin(c)), metallic=m, roughness=r),
-                           tmp_path / f"{tag}.glb")
-        half[tag] = _render(tmp_path, glb, tag, light)
+    half = {tag: _render(tmp_path, glb, tag, light) for tag, glb in uniform.items()}
     cols = np.arange(32)
     left, right = cols < 13, cols > 18               # the seam is at column 16
     rows = slice(6, 26)

@@ -21,15 +21,8 @@ from sgpipe.io.png import srgb_to_linear
 sys.path.insert(0, str(Path(__file__).parent))
 import gltf_builder as gb  # noqa: E402
 
-A = np.array([0.8, 0.3, 0.1])
-B = np.array([0.1, 0.4, 0.9])
-
-
-def _halves(a, b, size=32) -> np.ndarray:
-    img = np.empty((size, size, 3))
-    img[:, : size // 2] = a
-    img[:, size // 2:] = b
-    return img
+A, B = gb.HALF_A, gb.HALF_B
+_halves = gb.halves
 
 
 def test_decode_srgb_and_linear(tmp_path):
@@ -112,16 +105,9 @@ render:
 def test_reference_reads_base_colour_and_metallic_roughness(tmp_path):
     """Left half: base A, roughness 0.3, dielectric; right half: base B, roughness 0.7,
     metal. Away from the seam every pixel equals the uniform material of its half."""
-    mr = _halves([0, 0.3, 0.0], [0, 0.7, 1.0])
-    tex = gb.write_glb(gb.textured_quad(_halves(A, B), mr), tmp_path / "tex.glb")
+    tex, uniform = gb.halves_quads(tmp_path)
     img = _render(tmp_path, tex, "tex")
-    lin = lambda c: srgb_to_linear(np.round(c * 255) / 255)   # noqa: E731 - the PNG's 8 bits
-    half = {}
-    for tag, c, r, m in (("a", A, np.round(0.3 * 255) / 255, 0.0),
-                         ("b", B, np.round(0.7 * 255) / 255, 1.0)):
-        glb = gb.write_glb(gb.textured_quad(base=tuple(lin(c)), metallic=m, roughness=r),
-                           tmp_path / f"{tag}.glb")
-        half[tag] = _render(tmp_path, glb, tag)
+    half = {tag: _render(tmp_path, glb, tag) for tag, glb in uniform.items()}
     cols = np.arange(32)
     left, right = cols < 13, cols > 18               # the seam is at column 16
     rows = slice(6, 26)
