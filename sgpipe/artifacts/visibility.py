@@ -39,10 +39,12 @@ def _key(obj: str) -> str:
 
 # -- writers (the visibility stage) -----------------------------------------------------------
 def write_geometry(sink, obj: str, *, positions, normals, tangents, bitangents, faces, uvs,
-                   has_uvs: bool, ray_offset: float) -> None:
-    """`geometry.npz`: the world-space mesh whose vertex order the SSDF coefficients follow."""
+                   has_uvs: bool, ray_offset: float, handedness=None) -> None:
+    """`geometry.npz`: the world-space mesh whose vertex order the SSDF coefficients follow
+    (`handedness` (V,) ±1 only for a mesh that has one: a glTF TANGENT's w)."""
     f = np.float32
-    sink.write_npz(object_file(obj, GEOMETRY), {
+    extra = {} if handedness is None else {"handedness": np.asarray(handedness, f)}
+    sink.write_npz(object_file(obj, GEOMETRY), {**extra,
         "positions": np.asarray(positions, f), "normals": np.asarray(normals, f),
         "tangents": np.asarray(tangents, f), "bitangents": np.asarray(bitangents, f),
         "faces": np.asarray(faces, np.int32), "uvs": np.asarray(uvs, f),
@@ -71,13 +73,14 @@ def write_ssdf_pca(sink, obj: str, *, mean, basis, coeffs, explained_variance,
 @dataclass
 class Geometry:
     """An object's traced mesh: float32 (V, 3) positions / normals, (F, 3) int32 faces;
-    tangents and uvs None when the file has none."""
+    tangents, uvs and handedness None when the file has none."""
 
     positions: np.ndarray
     normals: np.ndarray
     faces: np.ndarray
     tangents: np.ndarray | None = None
     uvs: np.ndarray | None = None
+    handedness: np.ndarray | None = None
 
 
 def read_geometry(vis_dir: str | Path, obj: str) -> Geometry:
@@ -96,7 +99,10 @@ def read_geometry(vis_dir: str | Path, obj: str) -> Geometry:
         shaped(z["tangents"], (v, 3), "tangents", path, key)
     if "uvs" in z:
         shaped(z["uvs"], (v, 2), "uvs", path, key)
-    return Geometry(z["positions"], z["normals"], faces, z.get("tangents"), z.get("uvs"))
+    if "handedness" in z:
+        shaped(z["handedness"], (v,), "handedness", path, key)
+    return Geometry(z["positions"], z["normals"], faces, z.get("tangents"), z.get("uvs"),
+                    z.get("handedness"))
 
 
 @dataclass

@@ -74,7 +74,8 @@ def expand_gltf(cfg) -> None:
                 m = asset.materials[r.material]
                 params, label = m.params(), safe_name(m.name)
                 read = [t for t in m.textures if t in ("baseColorTexture",
-                                                       "metallicRoughnessTexture")]
+                                                       "metallicRoughnessTexture",
+                                                       "normalTexture")]
                 unread = [t for t in m.textures if t not in read]
                 if m.textures:
                     print(f"sgpipe: note: {Path(g.file).name}: materials[{m.index}] "

@@ -311,9 +311,9 @@ def read_gltf(path: str | Path) -> GltfAsset:
 
 
 def primitive_geometry(asset: GltfAsset, ref: PrimitiveRef) -> dict:
-    """World-space (glTF scene) positions, normals | None, uvs | None (v = 0 at the bottom),
-    tangents | None (xyz, w) and int64 faces of one primitive; flat-shaded when it has no
-    NORMAL."""
+    """World-space (glTF scene) positions, normals, uvs | None (v = 0 at the bottom), tangents
+    | None (xyz, w = ±1: the file's TANGENT, else MikkTSpace where the material reads a tangent
+    frame) and int64 faces of one primitive; flat-shaded when it has no NORMAL."""
     try:
         return _primitive_geometry(asset, ref)
     except _SCHEMA_ERRORS as e:
@@ -353,25 +353,37 @@ def _primitive_geometry(asset: GltfAsset, ref: PrimitiveRef) -> dict:
     if idx.size and (idx.min() < 0 or idx.max() >= n_v):
         _fail(path, f"{el}.indices", f"index {int(idx.max())} of {n_v} vertices")
     faces = idx.reshape(-1, 3)
-    m = ref.matrix
-    if np.linalg.det(m[:3, :3]) < 0:                        # a mirroring node flips winding
-        faces = faces[:, ::-1].copy()
-    world = pos @ m[:3, :3].T + m[:3, 3]
     if nrm is None:           # flat: one vertex per corner, the face normal
-        world = world[faces].reshape(-1, 3)
+        pos = pos[faces].reshape(-1, 3)
         uv = None if uv is None else uv[faces].reshape(-1, 2)
         tan = None if tan is None else tan[faces].reshape(-1, 4)
-        faces = np.arange(len(world), dtype=np.int64).reshape(-1, 3)
-        tri = world[faces]
-        fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        nrm_w = np.repeat(fn, 3, axis=0)
-    else:
-        nrm_w = nrm @ np.linalg.inv(m[:3, :3])               # inverse transpose, row vectors
-    if tan is not None:
-        tan = np.column_stack([tan[:, :3] @ m[:3, :3].T, tan[:, 3:]])
+        faces = np.arange(len(pos), dtype=np.int64).reshape(-1, 3)
+        tri = pos[faces]
+        nrm = np.repeat(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), 3, axis=0)
+    if tan is None and uv is not None and _needs_tangents(asset, ref):
+        from sgpipe.io.mikktspace import gltf_primitive_tangents
+        pos, nrm, uv, tan, faces = gltf_primitive_tangents(pos, nrm, uv, faces)
+    m = ref.matrix
+    det = np.linalg.det(m[:3, :3])
+    if det < 0:                                             # a mirroring node flips winding
+        faces = faces[:, ::-1].copy()
+    world = pos @ m[:3, :3].T + m[:3, 3]
+    nrm_w = nrm @ np.linalg.inv(m[:3, :3])                  # inverse transpose, row vectors
+    if tan is not None:       # bitangent = w (n × t): a mirror turns n × t round, so w too
+        tan = np.column_stack([tan[:, :3] @ m[:3, :3].T,
+                               np.where(tan[:, 3] < 0, -1.0, 1.0) * np.sign(det)])
     if uv is not None:
         uv = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]])
     return {"positions": world, "normals": nrm_w, "uvs": uv, "tangents": tan, "faces": faces}
+
+
+def _needs_tangents(asset: GltfAsset, ref: PrimitiveRef) -> bool:
+    """Whether the primitive's material reads a tangent frame (a normal texture, anisotropy):
+    then a primitive without TANGENT gets MikkTSpace tangents, as the specification asks."""
+    if ref.material is None or not 0 <= ref.material < len(asset.materials):
+        return False
+    m = asset.materials[ref.material]
+    return "normalTexture" in m.textures or m.anisotropy > 0.0
 
 
 def companion_files(path: str | Path) -> list[Path]:

@@ -35,6 +35,9 @@ class MeshGeometry:
     has_uvs: bool
     source: str | None = None
     warnings: dict[str, int] = field(default_factory=dict)
+    #: (V,) ±1: a normal texture's +Y runs along handedness · (n × t) (glTF TANGENT.w);
+    #: None: +1 everywhere
+    handedness: np.ndarray | None = None
 
     @property
     def bitangents(self) -> np.ndarray:
@@ -112,9 +115,11 @@ def uv_tangents(positions, faces, uvs, normals) -> tuple[np.ndarray, np.ndarray]
     return t, ok
 
 
-def build_mesh(positions, faces, *, normals=None, uvs=None, name="object", material="default",
-               source=None, key=None) -> MeshGeometry:
-    """Validate a world-space mesh and complete it with unit normals and tangents."""
+def build_mesh(positions, faces, *, normals=None, uvs=None, tangents=None, name="object",
+               material="default", source=None, key=None) -> MeshGeometry:
+    """Validate a world-space mesh and complete it with unit normals and tangents (`tangents`
+    (V, 4) xyz and handedness w, a glTF file's or MikkTSpace's, where given and usable; else
+    from the UVs)."""
     file = source
     P = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     Fc = np.asarray(faces).reshape(-1, 3) if np.size(faces) else np.zeros((0, 3), np.int64)
@@ -150,6 +155,7 @@ def build_mesh(positions, faces, *, normals=None, uvs=None, name="object", mater
         P = P[used]
         normals = None if normals is None else np.asarray(normals, float).reshape(-1, 3)[used]
         uvs = None if uvs is None else np.asarray(uvs, float).reshape(-1, 2)[used]
+        tangents = None if tangents is None else np.asarray(tangents, float).reshape(-1, 4)[used]
     Fc = Fc.astype(np.int32)
 
     geo_n, geo_ok = _unit_rows(area_weighted_normals(P, Fc))
@@ -181,9 +187,16 @@ def build_mesh(positions, faces, *, normals=None, uvs=None, name="object", mater
             warnings["degenerate_uv_tangents_fallback"] = int((~ok_uv).sum())
     else:
         UV = np.zeros((len(P), 2))
+    hand = None
+    if tangents is not None:
+        T4 = np.asarray(tangents, float).reshape(-1, 4)
+        given = T4[:, :3] - np.einsum("ij,ij->i", T4[:, :3], N)[:, None] * N
+        given, ok_t = _unit_rows(np.nan_to_num(given))
+        T = np.where(ok_t[:, None], given, T)
+        hand = np.where(ok_t & (T4[:, 3] < 0), -1.0, 1.0)
     return MeshGeometry(name=name, material=material, positions=P, normals=N, tangents=T,
                         faces=Fc, uvs=UV, has_uvs=bool(has_uvs), source=source,
-                        warnings=warnings)
+                        warnings=warnings, handedness=hand)
 
 
 def _read_mesh_file(path: Path, key: str | None):
@@ -239,8 +252,9 @@ def _read_mesh_file(path: Path, key: str | None):
 
 def _read_gltf_primitives(path: Path, node: int | None, primitive: int | None, key: str,
                           assets: dict | None = None):
-    """Positions, faces, normals, uvs|None of a glTF file's primitives in its scene's world
-    space: all of them, or one node's (one primitive of it), concatenated (sgpipe.io.gltf).
+    """Positions, faces, normals, uvs|None, tangents (V, 4)|None of a glTF file's primitives
+    in its scene's world space: all of them, or one node's (one primitive of it), concatenated
+    (sgpipe.io.gltf; a primitive without tangents has NaN rows when another has some).
     `assets`: files already read, by path (a scene's primitives share their file)."""
     from sgpipe.io.gltf import primitive_geometry, read_gltf
     assets = {} if assets is None else assets
@@ -265,7 +279,10 @@ def _read_gltf_primitives(path: Path, node: int | None, primitive: int | None, k
     N = np.concatenate([p["normals"] for p in parts])
     UV = (np.concatenate([p["uvs"] for p in parts])
           if all(p["uvs"] is not None for p in parts) else None)
-    return P, F, N, UV
+    T4 = (np.concatenate([p["tangents"] if p["tangents"] is not None
+                          else np.full((len(p["positions"]), 4), np.nan) for p in parts])
+          if any(p["tangents"] is not None for p in parts) else None)
+    return P, F, N, UV, T4
 
 
 def object_files(obj) -> list[Path]:
@@ -293,13 +310,16 @@ def load_object(obj, index: int = 0, *, sphere_subdivisions: int = 4,
     if obj.mesh is not None:
         key = f"scene.objects.{index}.mesh"
         if str(obj.mesh).lower().endswith((".gltf", ".glb")):
-            P, F, N, UV = _read_gltf_primitives(Path(obj.mesh), obj.gltf_node,
-                                                obj.gltf_primitive, key, assets)
+            P, F, N, UV, T4 = _read_gltf_primitives(Path(obj.mesh), obj.gltf_node,
+                                                    obj.gltf_primitive, key, assets)
         else:
-            P, F, N, UV = _read_mesh_file(Path(obj.mesh), key)
+            (P, F, N, UV), T4 = _read_mesh_file(Path(obj.mesh), key), None
         P, N = _transform(M, P, N)   # NaN stays NaN: build_mesh reports it
-        return build_mesh(P, F, normals=N, uvs=UV, name=obj.name, material=obj.material,
-                          source=str(obj.mesh), key=key)
+        if T4 is not None:           # bitangent = w (n × t): a mirroring transform turns w
+            T4 = np.column_stack([T4[:, :3] @ M[:3, :3].T,
+                                  T4[:, 3] * np.sign(np.linalg.det(M[:3, :3]))])
+        return build_mesh(P, F, normals=N, uvs=UV, tangents=T4, name=obj.name,
+                          material=obj.material, source=str(obj.mesh), key=key)
     P, F, N = sphere_mesh(obj.sphere_radius, sphere_subdivisions)
     P, N = _transform(M, P, N)
     return build_mesh(P, F, normals=N, name=obj.name, material=obj.material, source=None,

@@ -49,10 +49,11 @@ class GltfSurface:
 
 @dataclass
 class ObjectMaps:
-    """Optional per-object images (H, W, C) float: normal map, kd and ks multipliers; and a
+    """Optional per-object images (H, W, C) float: normal map (or a glTF normal texture, read
+    with its sampler: sgpipe.io.gltf_textures.GltfTexture), kd and ks multipliers; and a
     textured glTF material."""
 
-    normal_map: np.ndarray | None = None
+    normal_map: object | None = None
     kd_map: np.ndarray | None = None
     ks_map: np.ndarray | None = None
     gltf: GltfSurface | None = None
@@ -68,7 +69,7 @@ class ObjectMaps:
     def __post_init__(self):
         for k in ("normal_map", "kd_map", "ks_map"):
             a = getattr(self, k)
-            if a is None:
+            if a is None or hasattr(a, "bilinear"):
                 continue
             a = np.asarray(a, np.float64)
             if a.ndim == 2:
@@ -156,6 +157,7 @@ def primary_rows(tracer, camera, px, py, maps=None, backfacing: str = "lift") ->
     pos, n, t, ng, view = (g(gb.position), g(gb.normal), g(gb.tangent), g(gb.geo_normal),
                            g(gb.view))
     obj = gb.object_id[idx].astype(np.int64)
+    hand = None if gb.handedness is None else np.asarray(gb.handedness[idx])
     # CONVENTIONS frame: t ⟂ n, b = n × t (the G-buffer's float32 values re-orthonormalised)
     n = _unit(n)
     t = _unit(t - np.einsum("ij,ij->i", t, n)[:, None] * n)
@@ -180,7 +182,12 @@ def primary_rows(tracer, camera, px, py, maps=None, backfacing: str = "lift") ->
             if m.ks_map is not None:
                 ks[sel] = jit.tex_bilinear(m.ks_map, uv[sel])
             if m.normal_map is not None:
-                texel = jit.tex_bilinear(m.normal_map, uv[sel])
+                texel = (m.normal_map.bilinear(uv[sel])[:, :3].copy()
+                         if hasattr(m.normal_map, "bilinear")
+                         else jit.tex_bilinear(m.normal_map, uv[sel]))
+                if hand is not None:     # +Y along w (n × t): the kernels' gtan.w flip
+                    flip = hand[sel] < 0
+                    texel[flip, 1] = 1.0 - texel[flip, 1]
                 t2, b2, n2 = normal_mapped_frame(t[sel], b[sel], n[sel], texel)
                 if backfacing == "black":   # the BRDF's scales zeroed: no light, no bounce
                     behind = sel[np.einsum("ij,ij->i", view[sel], n2) <= 0.0]

@@ -77,7 +77,9 @@ class Frame:
                                       1).astype(np.float32)
         tri = gb.triangle_id if vis_tri is None else vis_tri
         bary = gb.barycentrics if vis_bary is None else vis_bary
-        return cls(index=idx, shape=gb.hit.shape, normal=f4(gb.normal), tangent=f4(gb.tangent),
+        tangent = f4(gb.tangent)     # w: the normal map's handedness (shading.h pixel_init)
+        tangent[:, 3] = 1.0 if gb.handedness is None else gb.handedness.reshape(-1)[idx]
+        return cls(index=idx, shape=gb.hit.shape, normal=f4(gb.normal), tangent=tangent,
                    view=f4(gb.view), position=f4(gb.position),
                    uv=gb.uv.reshape(-1, 2)[idx].astype(np.float32),
                    obj=gb.object_id.reshape(-1)[idx].astype(np.int32),

@@ -49,7 +49,8 @@ def load_trace_objects(cfg, vis_dir: str | Path | None = None) -> list[TraceObje
         if g is None:
             g = load_object(spec, k, sphere_subdivisions=sub, assets=assets)
         out.append(TraceObject.mesh(spec.name, g.positions, g.faces, normals=g.normals,
-                                    tangents=g.tangents, uvs=repeated_uvs(g.uvs, spec)))
+                                    tangents=g.tangents, uvs=repeated_uvs(g.uvs, spec),
+                                    handedness=g.handedness))
     return out
 
 

@@ -111,6 +111,8 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
         nmap = -1
         if o.normal_map is not None:
             nmap = textures.add(_image(o.normal_map, f"scene.objects.{k}.normal_map"))
+        elif (nt := gltf_normal_texture(cfg, o, assets)) is not None:
+            nmap = textures.add(nt.image, wrap=nt.wrap, matrix=nt.matrix)
         shading.append(ObjectShading(material=names.index(o.material), vis=vis[k][0],
                                      normal_map=nmap))
     renderer = Renderer(env=env, materials=pack_materials(mats), objects=shading,
@@ -192,18 +194,16 @@ def linear_parameters(g, base, mr):
     return (a, b), tex
 
 
-def gltf_textures(cfg, obj, assets: dict):
-    """The textured glTF material of an object that is one glTF primitive (gltf_node and
-    gltf_primitive set) rendered with a `gltf_pbr` material: (its material spec, the glTF
-    material's base-colour and metallic-roughness GltfTextures, either None), or None when the
-    material has neither texture. `assets`: glTF files read so far, by path."""
+def _gltf_material(cfg, obj, assets: dict):
+    """(material spec, glTF asset, glTF material index) of an object that is one glTF
+    primitive (gltf_node and gltf_primitive set) rendered with a `gltf_pbr` material, else
+    None. `assets`: glTF files read so far, by path."""
     if obj.gltf_node is None or obj.gltf_primitive is None or cfg.fit is None:
         return None
     spec = next((m for m in cfg.fit.materials if m.name == obj.material), None)
     if spec is None or spec.model != "gltf_pbr":
         return None
     from sgpipe.io.gltf import read_gltf
-    from sgpipe.io.gltf_textures import material_texture
     if obj.mesh not in assets:
         assets[obj.mesh] = read_gltf(obj.mesh)
     asset = assets[obj.mesh]
@@ -211,8 +211,40 @@ def gltf_textures(cfg, obj, assets: dict):
                 if (r.node, r.primitive) == (obj.gltf_node, obj.gltf_primitive)), None)
     if ref is None or ref.material is None:
         return None
-    base = material_texture(asset, ref.material, "baseColorTexture")
-    mr = material_texture(asset, ref.material, "metallicRoughnessTexture")
+    return spec, asset, ref.material
+
+
+def gltf_normal_texture(cfg, obj, assets: dict):
+    """The normal texture of an object's glTF material (as `_gltf_material`), its `scale`
+    applied to the stored texels (c' = ((2c − 1)(s, s, 1) + 1) / 2, so that the decode
+    n = normalize(2c' − 1) of every method is the specification's), or None."""
+    found = _gltf_material(cfg, obj, assets)
+    if found is None:
+        return None
+    from sgpipe.io.gltf_textures import material_texture
+    _, asset, index = found
+    tex = material_texture(asset, index, "normalTexture")
+    if tex is None:
+        return None
+    scale = getattr(asset.doc.materials[index].normalTexture, "scale", None)
+    scale = 1.0 if scale is None else float(scale)
+    if scale != 1.0:
+        tex.image[..., :2] = ((2.0 * tex.image[..., :2] - 1.0) * scale + 1.0) * 0.5
+    return tex
+
+
+def gltf_textures(cfg, obj, assets: dict):
+    """The textured glTF material of an object that is one glTF primitive rendered with a
+    `gltf_pbr` material: (its material spec, the glTF material's base-colour and
+    metallic-roughness GltfTextures, either None), or None when the material has neither
+    texture. `assets`: glTF files read so far, by path."""
+    found = _gltf_material(cfg, obj, assets)
+    if found is None:
+        return None
+    spec, asset, index = found
+    from sgpipe.io.gltf_textures import material_texture
+    base = material_texture(asset, index, "baseColorTexture")
+    mr = material_texture(asset, index, "metallicRoughnessTexture")
     if base is None and mr is None:
         return None
     return spec, base, mr

@@ -42,9 +42,11 @@ class TraceObject:
     center: np.ndarray | None = None     # (3,) sphere centre
     radius: float = 0.0                  # sphere radius
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))  # sphere object→world
+    handedness: np.ndarray | None = None  # (V,) ±1: normal-map +Y along ± n × t (optional)
 
     @classmethod
-    def mesh(cls, name, vertices, faces, *, normals=None, tangents=None, uvs=None):
+    def mesh(cls, name, vertices, faces, *, normals=None, tangents=None, uvs=None,
+             handedness=None):
         v = np.ascontiguousarray(vertices, np.float32)
         f = np.ascontiguousarray(faces, np.int32)
         if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3:
@@ -52,7 +54,9 @@ class TraceObject:
         if f.size and (f.min() < 0 or f.max() >= len(v)):
             raise ValueError(f"{name}: face index out of range")
         opt = lambda a, k: None if a is None else np.ascontiguousarray(a, np.float32).reshape(-1, k)
-        return cls(name, "mesh", v, f, opt(normals, 3), opt(tangents, 3), opt(uvs, 2))
+        hand = None if handedness is None else np.asarray(handedness, np.float32).reshape(-1)
+        return cls(name, "mesh", v, f, opt(normals, 3), opt(tangents, 3), opt(uvs, 2),
+                   handedness=hand)
 
     @classmethod
     def sphere(cls, name, center, radius, rotation=None):
@@ -78,6 +82,9 @@ class GBuffer:
     barycentrics: np.ndarray  # S×2 float32 (b0, b1) Embree convention
     view: np.ndarray         # S×3 float32 unit direction towards the viewer (−ray dir)
     backface: np.ndarray     # S bool: the ray met the back side of a triangle
+    #: S float32 ±1: a normal map's +Y runs along handedness · bitangent (glTF TANGENT.w);
+    #: None: +1 everywhere
+    handedness: np.ndarray | None = None
     objects: list = field(default_factory=list, repr=False)
 
     @property
@@ -236,6 +243,7 @@ class Tracer:
         nrm = np.zeros((n, 3))
         ngeo = np.zeros((n, 3))
         tan_hint = np.full((n, 3), np.nan)
+        hand = np.ones(n)
         uv = np.zeros((n, 2))
         for k, ob in enumerate(self.objects):
             sel = obj == k
@@ -265,6 +273,8 @@ class Tracer:
                 uv[sel] = lerp(ob.uvs)
             if ob.tangents is not None:
                 tan_hint[sel] = lerp(ob.tangents)
+            if ob.handedness is not None:
+                hand[sel] = np.where(lerp(ob.handedness[:, None])[:, 0] < 0, -1.0, 1.0)
         back = hit & (np.einsum("ij,ij->i", ngeo, d) > 0)
         ngeo[back] *= -1.0
         nrm[back] *= -1.0
@@ -282,7 +292,9 @@ class Tracer:
                        bitangent=f32(bit, 3), uv=f32(uv, 2), object_id=obj.reshape(shape),
                        triangle_id=tri.reshape(shape), barycentrics=f32(bary, 2),
                        view=f32(np.where(hit[:, None], -d, 0.0), 3),
-                       backface=back.reshape(shape), objects=self.objects)
+                       backface=back.reshape(shape), objects=self.objects,
+                       handedness=None if all(ob.handedness is None for ob in self.objects)
+                       else f32(np.where(hit, hand, 1.0)))
 
 
 def trace_gbuffer(objects: list[TraceObject], origins, dirs) -> GBuffer:

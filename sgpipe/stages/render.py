@@ -208,7 +208,7 @@ def object_maps(cfg) -> list:
     """Per scene object the images the OpenCL methods read for it (sgpipe.reference.ObjectMaps):
     its normal map and its material's kd / ks textures (render.material_textures)."""
     from sgpipe.reference import ObjectMaps
-    from sgpipe.render.setup import read_texture
+    from sgpipe.render.setup import gltf_normal_texture, read_texture
     tex = {t.material: t for t in cfg.render.material_textures}
     cache: dict = {}
     assets: dict = {}           # glTF files, read once for all their primitives' objects
@@ -222,8 +222,8 @@ def object_maps(cfg) -> list:
     for k, o in enumerate(cfg.scene.objects if cfg.scene is not None else []):
         t = tex.get(o.material)
         out.append(ObjectMaps(
-            normal_map=None if o.normal_map is None else image(o.normal_map,
-                                                               f"scene.objects.{k}.normal_map"),
+            normal_map=gltf_normal_texture(cfg, o, assets) if o.normal_map is None
+            else image(o.normal_map, f"scene.objects.{k}.normal_map"),
             kd_map=image(t.kd_map, "render.material_textures.kd_map") if t and t.kd_map else None,
             ks_map=image(t.ks_map, "render.material_textures.ks_map") if t and t.ks_map else None,
             gltf=_gltf_surface(cfg, o, assets)))

@@ -117,7 +117,8 @@ def _write_object(run: StageRun, cfg, g: MeshGeometry, pca, X, frac, scene, offs
     name = g.name
     artifacts.write_geometry(run, name, positions=g.positions, normals=g.normals,
                              tangents=g.tangents, bitangents=g.bitangents, faces=g.faces,
-                             uvs=g.uvs, has_uvs=g.has_uvs, ray_offset=offset)
+                             uvs=g.uvs, has_uvs=g.has_uvs, ray_offset=offset,
+                             handedness=g.handedness)
     nterm = pca.basis.shape[0]
     mean = pca.mean.reshape(res, res).astype(np.float32)
     basis = pca.basis.reshape(nterm, res, res).astype(np.float32)

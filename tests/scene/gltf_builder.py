@@ -132,6 +132,16 @@ def textured_quad(base_img=None, mr_img=None, *, base=(1.0, 1.0, 1.0), metallic=
     n = np.array([[0, 0, 1]] * 4, np.float32)
     uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
     idx = np.array([0, 3, 2, 0, 2, 1], np.uint16)
+    return primitive_doc(p, n, uv, idx, {"baseColorTexture": base_img,
+                                         "metallicRoughnessTexture": mr_img},
+                         base=base, metallic=metallic, roughness=roughness, wrap=wrap)
+
+
+def primitive_doc(p, n, uv, idx, images: dict, *, tangents=None, normal_scale=None,
+                  base=(1.0, 1.0, 1.0), metallic=1.0, roughness=1.0, wrap=33071) -> g.GLTF2:
+    """One indexed primitive (positions, normals, glTF UVs, optional TANGENT) with one
+    material whose textures are PNGs: `images` {slot: (H, W, 3) image or None} for
+    baseColorTexture, metallicRoughnessTexture, normalTexture (with `normal_scale`)."""
     blob, views, accessors = b"", [], []
 
     def view(data: bytes, target=None) -> int:
@@ -149,31 +159,57 @@ def textured_quad(base_img=None, mr_img=None, *, base=(1.0, 1.0, 1.0), metallic=
             accessors[-1].min, accessors[-1].max = arr.min(0).tolist(), arr.max(0).tolist()
         return len(accessors) - 1
 
-    attrs = g.Attributes(POSITION=acc(p, g.FLOAT, g.VEC3, g.ARRAY_BUFFER),
-                         NORMAL=acc(n, g.FLOAT, g.VEC3, g.ARRAY_BUFFER),
-                         TEXCOORD_0=acc(uv, g.FLOAT, g.VEC2, g.ARRAY_BUFFER))
-    ind = acc(idx, g.UNSIGNED_SHORT, g.SCALAR, g.ELEMENT_ARRAY_BUFFER)
-    images, textures = [], []
+    f32 = lambda a: np.asarray(a, np.float32)  # noqa: E731
+    attrs = g.Attributes(POSITION=acc(f32(p), g.FLOAT, g.VEC3, g.ARRAY_BUFFER),
+                         NORMAL=acc(f32(n), g.FLOAT, g.VEC3, g.ARRAY_BUFFER),
+                         TEXCOORD_0=acc(f32(uv), g.FLOAT, g.VEC2, g.ARRAY_BUFFER))
+    if tangents is not None:
+        attrs.TANGENT = acc(f32(tangents), g.FLOAT, g.VEC4, g.ARRAY_BUFFER)
+    ind = acc(np.asarray(idx, np.uint16), g.UNSIGNED_SHORT, g.SCALAR, g.ELEMENT_ARRAY_BUFFER)
+    images_, textures = [], []
     pbr = g.PbrMetallicRoughness(baseColorFactor=[*base, 1.0], metallicFactor=metallic,
                                  roughnessFactor=roughness)
-    for img, slot in ((base_img, "baseColorTexture"), (mr_img, "metallicRoughnessTexture")):
+    material = g.Material(name="painted", pbrMetallicRoughness=pbr)
+    for slot, img in images.items():
         if img is None:
             continue
-        images.append(g.Image(bufferView=view(png_bytes(img)), mimeType="image/png"))
-        textures.append(g.Texture(source=len(images) - 1, sampler=0))
-        setattr(pbr, slot, g.TextureInfo(index=len(textures) - 1))
+        images_.append(g.Image(bufferView=view(png_bytes(img)), mimeType="image/png"))
+        textures.append(g.Texture(source=len(images_) - 1, sampler=0))
+        if slot == "normalTexture":
+            material.normalTexture = g.NormalMaterialTexture(index=len(textures) - 1,
+                                                             scale=normal_scale)
+        else:
+            setattr(pbr, slot, g.TextureInfo(index=len(textures) - 1))
     doc = g.GLTF2(asset=g.Asset(version="2.0"), scene=0, scenes=[g.Scene(nodes=[0])],
                   nodes=[g.Node(name="quad", mesh=0)],
                   meshes=[g.Mesh(primitives=[g.Primitive(attributes=attrs, indices=ind,
                                                          material=0)])],
-                  materials=[g.Material(name="painted", pbrMetallicRoughness=pbr)],
-                  images=images, textures=textures,
+                  materials=[material], images=images_, textures=textures,
                   samplers=[g.Sampler(wrapS=wrap, wrapT=wrap)],
                   accessors=accessors, bufferViews=views,
                   buffers=[g.Buffer(byteLength=len(blob))], extensionsUsed=[],
                   extensionsRequired=[])
     doc.set_binary_blob(blob)
     return doc
+
+
+def mirrored_strip(images=None, *, normals=None, tangents=None, normal_scale=None,
+                   roughness=0.4) -> g.GLTF2:
+    """A 2 × 2 square facing +z in two halves whose UVs mirror each other at x = 0 (u = |x|,
+    glTF v = 0 at the top edge y = 1), the seam's vertices doubled; a grey dielectric.
+    `normals` (2, 3): per half (left, right) a NORMAL for its four vertices (default +z);
+    `tangents` (2, 4): per half a TANGENT."""
+    x = np.array([[-1, 0, 0, -1], [0, 1, 1, 0]], float)
+    y = np.array([[1, 1, -1, -1], [1, 1, -1, -1]], float)
+    p = np.stack([x, y, np.zeros_like(x)], -1).reshape(-1, 3)
+    uv = np.stack([np.abs(x), (1.0 - y) / 2], -1).reshape(-1, 2)
+    nn = np.tile([0.0, 0.0, 1.0], (2, 1)) if normals is None else np.asarray(normals, float)
+    n = np.repeat(nn, 4, axis=0)
+    t = None if tangents is None else np.repeat(np.asarray(tangents, float), 4, axis=0)
+    # counter-clockwise seen from +z: left (0, 3, 2), (0, 2, 1); right (4, 7, 6), (4, 6, 5)
+    idx = np.array([0, 3, 2, 0, 2, 1, 4, 7, 6, 4, 6, 5])
+    return primitive_doc(p, n, uv, idx, images or {}, tangents=t, normal_scale=normal_scale,
+                         base=(0.5, 0.5, 0.5), metallic=0.0, roughness=roughness)
 
 
 #: the two-material quad's halves: base colours (sRGB) and (roughness, metallic)

@@ -272,8 +272,16 @@ inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const flo
     if (kt >= 0) p.kd *= tex_filtered(texels, texinfo[kt], texaff, kt, p.uv, duv).xyz;
     if (st >= 0) p.ks *= tex_filtered(texels, texinfo[st], texaff, st, p.uv, duv).xyz;
     p.q = (float4)(0.0f, 0.0f, 0.0f, 1.0f);
-    if (OBJ_NMAP(p.ob) >= 0)
-        p.q = quat_from_z(normal_from_map(tex_bilinear(texels, texinfo[OBJ_NMAP(p.ob)], p.uv)));
+    int nm = OBJ_NMAP(p.ob);
+    if (nm >= 0) {
+        /* a glTF normal texture keeps its sampler and transform (one bilinear tap of level
+         * 0); its +Y runs along w (n × t), w the tangent's handedness */
+        float4 c = (texinfo[nm].w >> 8) != 0 || texaff[2 * nm].w != 0.0f
+                   ? tex_filtered(texels, texinfo[nm], texaff, nm, p.uv, (float4)(0.0f))
+                   : tex_bilinear(texels, texinfo[nm], p.uv);
+        if (gtan[gid].w < 0.0f) c.y = 1.0f - c.y;
+        p.q = quat_from_z(normal_from_map(c));
+    }
     p.qi = quat_conj(p.q);
     float3 ol = lift(to_local(gview[gid].xyz, p.T, p.B, p.N), 0.01f);
     p.op = lift(normalize(quat_rotate(p.qi, ol)), 0.01f);

@@ -1,0 +1,78 @@
+"""glTF normal textures in the reference, sg and fis: the texture's normal in the tangent frame
+(TANGENT, else MikkTSpace; bitangent w (n × t)), with its `scale`, renders as the same normal
+given as geometry."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+import gltf_builder as gb  # noqa: E402
+
+#: the texture's normal: 30° off +Z towards 60° from +X (so it leans along +Y too)
+TILT = np.array([np.sin(np.pi / 6) * np.cos(np.pi / 3), np.sin(np.pi / 6) * np.sin(np.pi / 3),
+                 np.cos(np.pi / 6)])
+METHODS = ("sg", "fis", "reference")
+
+
+def _texture() -> tuple[np.ndarray, np.ndarray]:
+    """A constant 4 × 4 normal texture of TILT and the normal its 8-bit texels decode to."""
+    c = np.round((TILT + 1.0) / 2.0 * 255.0) / 255.0
+    return np.tile(c, (4, 4, 1)), 2.0 * c - 1.0
+
+
+def _render(tmp_path, glb: Path, tag: str) -> dict:
+    from sgpipe.io import read_exr
+    cfg = tmp_path / f"{tag}.yaml"
+    cfg.write_text(f"""
+scene: {{gltf: [{{file: {glb}}}]}}
+fit: {{view_gmm: {{enabled: false}}}}
+render:
+  camera: {{eye: [0, 0, 3.0], target: [0, 0, 0], fov_deg: 40, width: 32, height: 32}}
+  methods: [{', '.join(METHODS)}]
+  fis_samples: 64
+  spp: 4
+  lights: [{{type: point, position: [0.6, 0.4, 1.5], intensity: [5, 5, 5], radius: 0.0}}]
+""")
+    out = tmp_path / f"out_{tag}"
+    r = subprocess.run([sys.executable, "-m", "sgpipe", "run", str(cfg), "--out", str(out)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return {m: read_exr(out / "render" / f"{m}.exr")[..., :3] for m in METHODS}
+
+
+@pytest.mark.parametrize("given", ["mikktspace", "tangent"])
+def test_normal_texture_renders_as_the_normal_it_encodes(tmp_path, given):
+    """A square whose halves mirror the texture (u = |x|): on the right half the texture's +X
+    runs along +x, on the left along −x, and on both its +Y (up in the image) along +y. The
+    same square with the decoded normal as geometry (x mirrored on the left) renders the same
+    in every method; under the texture's `scale` s the normal is (s x, s y, z)."""
+    img, n = _texture()
+    scale = 0.7 if given == "mikktspace" else None
+    tangents = None if given == "mikktspace" else [[-1, 0, 0, -1], [1, 0, 0, 1]]
+    textured = gb.write_glb(gb.mirrored_strip({"normalTexture": img}, tangents=tangents,
+                                              normal_scale=scale), tmp_path / "tex.glb")
+    s = 1.0 if scale is None else scale
+    right = np.array([s * n[0], s * n[1], n[2]])
+    right /= np.linalg.norm(right)
+    left = right * [-1.0, 1.0, 1.0]
+    baked = gb.write_glb(gb.mirrored_strip(normals=[left, right]), tmp_path / "baked.glb")
+    got, want = _render(tmp_path, textured, "tex"), _render(tmp_path, baked, "baked")
+    rows = slice(6, 26)
+    for method in METHODS:
+        a, b = got[method][rows], want[method][rows]
+        assert np.abs(b).mean() > 0.02
+        err = np.abs(a - b).mean() / np.abs(b).mean()
+        assert err <= 2e-3, (method, err)
+    # the bitangent's sign matters here: with +Y along n × t on the left half (w ignored)
+    # that half would render as the normal (−x, −y, z), far outside the tolerance
+    flipped = gb.write_glb(gb.mirrored_strip(normals=[left * [1.0, -1.0, 1.0], right]),
+                           tmp_path / "flipped.glb")
+    wrong = _render(tmp_path, flipped, "flipped")["sg"][rows]
+    b = want["sg"][rows]
+    assert np.abs(wrong - b).mean() / np.abs(b).mean() > 0.05
