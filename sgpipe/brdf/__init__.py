@@ -21,7 +21,7 @@ Models (REGISTRY keys) and parameters (RGB values accept a number or [r, g, b]):
   lambert(kd) · blinn_phong(exponent, kd, ks, fresnel…) · cook_torrance(m, kd, ks, fresnel…)
   ward(alpha | alpha_u+alpha_v, kd, ks) · ashikhmin_shirley(nu, nv, rs, rd, ks)
   beckmann / ggx(alpha | alpha_u+alpha_v, kd, ks, fresnel…)
-  gltf_pbr(base_color, metallic, roughness, anisotropy): glTF 2.0 metal-rough (Appendix B)
+  gltf_pbr(base_color, metallic, roughness, anisotropy, emissive): glTF 2.0 metal-rough (Appendix B)
   fresnel: none | schlick(f0) | conductor(eta, k) | dielectric(eta)  (Wang09 eq 14)
   merl(merl_file, eta=1.33): MERL table + Wang09 eq 13 tabulated microfacet fit.
 Bad parameters raise `BRDFParamError(param, message)` (a ValueError naming the parameter).

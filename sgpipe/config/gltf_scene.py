@@ -28,6 +28,29 @@ def _unique(name: str, taken: set[str], tag: str) -> str:
     return out
 
 
+#: which methods read which glTF textures: the per-pixel parameters only the reference, sg and
+#: fis (the others render the material's factors); the normal and emissive textures every
+#: method that renders `gltf_pbr`
+PER_PIXEL_TEXTURES = ("baseColorTexture", "metallicRoughnessTexture")
+EVERY_METHOD_TEXTURES = ("normalTexture", "emissiveTexture")
+
+
+def _texture_note(textures: list[str]) -> str:
+    """One line saying which methods read which of a material's textures."""
+    parts = []
+    per_pixel = [t for t in textures if t in PER_PIXEL_TEXTURES]
+    every = [t for t in textures if t in EVERY_METHOD_TEXTURES]
+    unread = [t for t in textures if t not in PER_PIXEL_TEXTURES + EVERY_METHOD_TEXTURES]
+    if per_pixel:
+        parts.append(f"reference, sg and fis read its {' and '.join(per_pixel)}, the other "
+                     "methods its factors")
+    if every:
+        parts.append(f"every method reads its {' and '.join(every)}")
+    if unread:
+        parts.append(f"{', '.join(unread)} not read")
+    return "; ".join(parts)
+
+
 def expand_gltf(cfg) -> None:
     """Append one ObjectSpec per triangle primitive of each `scene.gltf` file (or of its
     selected nodes) and one `gltf_pbr` MaterialSpec per glTF material those use (its factors;
@@ -73,18 +96,9 @@ def expand_gltf(cfg) -> None:
                                    key=f"meshes[{r.mesh}].primitives[{r.primitive}].material")
                 m = asset.materials[r.material]
                 params, label = m.params(), safe_name(m.name)
-                read = [t for t in m.textures if t in ("baseColorTexture",
-                                                       "metallicRoughnessTexture",
-                                                       "normalTexture")]
-                unread = [t for t in m.textures if t not in read]
                 if m.textures:
                     print(f"sgpipe: note: {Path(g.file).name}: materials[{m.index}] "
-                          f"({m.name}): "
-                          + (f"reference, sg and fis read its {' and '.join(read)}, the "
-                             "other methods its factors" if read else "")
-                          + ("; " if read and unread else "")
-                          + (f"{', '.join(unread)} not read" if unread else ""),
-                          file=sys.stderr)
+                          f"({m.name}): {_texture_note(m.textures)}", file=sys.stderr)
             name = _unique(f"{prefix}.{label}", materials, str(r.material))
             mat_names[r.material] = name
             cfg.fit.materials.append(MaterialSpec(name=name, model="gltf_pbr", params=params))

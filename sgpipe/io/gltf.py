@@ -30,7 +30,7 @@ import numpy as np
 from sgpipe.errors import BadInput
 
 #: extensions whose content sgpipe reads; a file that *requires* any other is refused
-SUPPORTED_EXTENSIONS = ("KHR_materials_anisotropy",)
+SUPPORTED_EXTENSIONS = ("KHR_materials_anisotropy", "KHR_materials_emissive_strength")
 
 _COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32,
               5126: np.float32}
@@ -62,10 +62,15 @@ class GltfMaterial:
     roughness: float
     anisotropy: float
     textures: list[str] = field(default_factory=list)   # e.g. ["baseColorTexture"]
+    #: emissiveFactor × KHR_materials_emissive_strength (linear RGB radiance)
+    emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def params(self) -> dict:
-        return {"base_color": list(self.base_color), "metallic": self.metallic,
-                "roughness": self.roughness, "anisotropy": self.anisotropy}
+        out = {"base_color": list(self.base_color), "metallic": self.metallic,
+               "roughness": self.roughness, "anisotropy": self.anisotropy}
+        if any(self.emissive):
+            out["emissive"] = list(self.emissive)
+        return out
 
 
 @dataclass
@@ -280,12 +285,19 @@ def _materials(path: Path, doc) -> list[GltfMaterial]:
         aniso = (m.extensions or {}).get("KHR_materials_anisotropy") or {}
         strength = _factor(path, f"{el}.extensions.KHR_materials_anisotropy.anisotropyStrength",
                            aniso.get("anisotropyStrength", 0.0))
+        emissive = list(m.emissiveFactor or [0.0, 0.0, 0.0])
+        if len(emissive) != 3:
+            _fail(path, f"{el}.emissiveFactor", "needs 3 numbers")
+        ext = (m.extensions or {}).get("KHR_materials_emissive_strength") or {}
+        strength_e = _factor(path, f"{el}.extensions.KHR_materials_emissive_strength."
+                             "emissiveStrength", ext.get("emissiveStrength", 1.0), hi=float("inf"))
+        emissive = tuple(strength_e * _factor(path, f"{el}.emissiveFactor", c) for c in emissive)
         textures = [t for t in ("baseColorTexture", "metallicRoughnessTexture")
                     if pbr is not None and getattr(pbr, t, None) is not None]
         textures += [t for t in ("normalTexture", "occlusionTexture", "emissiveTexture")
                      if getattr(m, t, None) is not None]
         out.append(GltfMaterial(i, m.name or f"material{i}", rgb, metal, rough, strength,
-                                textures))
+                                textures, emissive))
     return out
 
 

@@ -269,6 +269,8 @@ def _shade_paths(sh, rows, u, ul, ub, strategy, mis, bounces):
         rows = {key: nxt[key] for key in ("pos", "n", "t", "b", "ng", "view", "obj", "tex")}
         uk = uk[hit]
         est = _shade_hits(sh, rows, uk[:, 2:6], uk[:, 6:] if n_l else None, strategy, mis)
+        if nxt.get("emit") is not None:   # an emitting surface the bounce reaches
+            est = est + nxt["emit"]
         out[row_of] += beta * est
     return out
 
@@ -334,6 +336,8 @@ def shade_tile(task) -> dict:
                 est[live] = _shade_paths(sh, take, u[live], ul, ub, strategy, mis, bounces)
             else:
                 est[live] = _shade_hits(sh, take, u[live], ul, strategy, mis)
+            if prim.get("emit") is not None:
+                est[live] += prim["emit"][h[live]]
         hits += (h >= 0).reshape(npx, ns).sum(axis=1)
         jit.accumulate(est, npx, ns, s_sum, s_sq)
         done = nxt

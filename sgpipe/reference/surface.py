@@ -51,12 +51,15 @@ class GltfSurface:
 class ObjectMaps:
     """Optional per-object images (H, W, C) float: normal map (or a glTF normal texture, read
     with its sampler: sgpipe.io.gltf_textures.GltfTexture), kd and ks multipliers; and a
-    textured glTF material."""
+    textured glTF material; what the surface emits (gltf_pbr `emissive` (3,) × its emissive
+    texture, a GltfTexture)."""
 
     normal_map: object | None = None
     kd_map: np.ndarray | None = None
     ks_map: np.ndarray | None = None
     gltf: GltfSurface | None = None
+    emission: np.ndarray | None = None
+    emissive_texture: object | None = None
 
     @classmethod
     def of(cls, m) -> "ObjectMaps":
@@ -64,7 +67,8 @@ class ObjectMaps:
             return cls()
         if isinstance(m, ObjectMaps):
             return m
-        return cls(**{k: m.get(k) for k in ("normal_map", "kd_map", "ks_map", "gltf")})
+        return cls(**{k: m.get(k) for k in ("normal_map", "kd_map", "ks_map", "gltf",
+                                            "emission", "emissive_texture")})
 
     def __post_init__(self):
         for k in ("normal_map", "kd_map", "ks_map"):
@@ -83,7 +87,16 @@ class ObjectMaps:
     @property
     def empty(self) -> bool:
         return (self.normal_map is None and self.kd_map is None and self.ks_map is None
-                and self.gltf is None)
+                and self.gltf is None and self.emission is None)
+
+    def emitted(self, uv) -> np.ndarray | None:
+        """(N, 3) emitted radiance at sgpipe UVs (N, 2), or None."""
+        if self.emission is None:
+            return None
+        e = np.tile(np.asarray(self.emission, float), (len(uv), 1))
+        if self.emissive_texture is not None:
+            e *= self.emissive_texture.bilinear(uv)[:, :3]
+        return e
 
 
 def _unit(v):
@@ -144,7 +157,8 @@ def normal_mapped_frame(t, b, n, texel):
 def primary_rows(tracer, camera, px, py, maps=None, backfacing: str = "lift") -> dict:
     """Trace rays through image-plane positions (px, py) (N,) → per row: `hit`, `dirs`, and for
     the hit rows (index `idx`) the shading inputs `pos`, `t`, `b`, `n` (normal-mapped frame),
-    `ng`, `view`, `obj` and `tex` ((kd scale, ks scale) (M, 3) each, or None). `backfacing`:
+    `ng`, `view`, `obj`, `tex` ((kd scale, ks scale) (M, 3) each, or None) and `emit` (what
+    the surface emits (M, 3), or None). `backfacing`:
     where the view lies behind a mapped normal, "lift" shades it at a grazing view as the
     kernels do (mapped_view); "black" reflects nothing there (Mitsuba 3's `normalmap`)."""
     o, d = camera.rays_at(px, py)
@@ -162,7 +176,7 @@ def primary_rows(tracer, camera, px, py, maps=None, backfacing: str = "lift") ->
     n = _unit(n)
     t = _unit(t - np.einsum("ij,ij->i", t, n)[:, None] * n)
     b = np.cross(n, t)
-    tex = None
+    tex = emit = None
     maps = [ObjectMaps.of(m) for m in (maps or ())]
     if any(not m.empty for m in maps):
         uv = np.asarray(gb.uv[idx], np.float64)
@@ -177,6 +191,10 @@ def primary_rows(tracer, camera, px, py, maps=None, backfacing: str = "lift") ->
                 continue
             if m.gltf is not None:
                 sv[sel] = m.gltf.params(uv[sel])
+            if m.emission is not None:
+                if emit is None:
+                    emit = np.zeros((len(idx), 3))
+                emit[sel] = m.emitted(uv[sel])
             if m.kd_map is not None:
                 kd[sel] = jit.tex_bilinear(m.kd_map, uv[sel])
             if m.ks_map is not None:
@@ -199,4 +217,4 @@ def primary_rows(tracer, camera, px, py, maps=None, backfacing: str = "lift") ->
         if scaled:
             tex = (kd, ks, sv)
     return {"hit": gb.hit, "dirs": d64, "idx": idx, "pos": pos, "t": t, "b": b, "n": n,
-            "ng": ng, "view": view, "obj": obj, "tex": tex}
+            "ng": ng, "view": view, "obj": obj, "tex": tex, "emit": emit}

@@ -17,8 +17,8 @@ from sgpipe.artifacts import fit as contract
 from sgpipe.artifacts import scalar
 from sgpipe.core.asg import x_angle
 from sgpipe.errors import BadInput
-from sgpipe.render.records import (ANISO, AU, AV, BASE, BCTEX, DIFFUSE, ETA, ETAB, ETGRID, F0,
-                                   FRESNEL, GMM, WARPN,
+from sgpipe.render.records import (ANISO, AU, AV, BASE, BCTEX, DIFFUSE, EMIT, EMTEX, ETA,
+                                   ETAB, ETGRID, F0, FRESNEL, GMM, WARPN,
                                    GMM_FLAGS, GMM_K, GMM_NP, GMM_NT, GMM_TMAX, GSCALE, K, KD,
                                    KDTEX, KS, KSTEX, LOBE0, MAT_STRIDE, METAL, MRTEX, NLOBES,
                                    ROUGH, SHADOW, STAB, SVA0, SVA1, SVLIN, SVLOB, SVN,
@@ -83,6 +83,8 @@ class Material:
     energy: np.ndarray | None = None     # sg's energy table (ENERGY_VIEWS,) (render.energy)
     energy_grid: np.ndarray | None = None  # ... per roughness-grid entry (ENERGY_VIEWS, R, 4)
     exact_warp: bool = False             # sg's exact warped lobe mass (render.energy, WARPN)
+    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))   # emitted radiance
+    emission_texture: int = -1           # its texture (× emission), −1: none
 
     @classmethod
     def lambert(cls, name: str, kd) -> "Material":
@@ -237,6 +239,8 @@ def pack_materials(materials: list[Material]) -> MaterialTable:
         r[KDTEX], r[KSTEX] = m.kd_texture, m.ks_texture
         r[BCTEX] = r[MRTEX] = r[SVLOB] = r[ETAB] = r[ETGRID] = -1
         r[WARPN] = float(m.exact_warp)
+        r[EMIT:EMIT + 3] = np.asarray(m.emission, float)
+        r[EMTEX] = m.emission_texture
         for slot, tab in ((ETAB, m.energy), (ETGRID, m.energy_grid)):
             if tab is not None:
                 pad = -n_tab % 4               # the kernels read these rows as float4

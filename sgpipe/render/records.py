@@ -16,7 +16,7 @@ ENERGY_VIEWS = 32
 ENERGY_COS_MIN = 0.01
 
 #: Floats per material record (kernels: `mats + material * MAT_STRIDE`).
-MAT_STRIDE = 52
+MAT_STRIDE = 56
 
 
 class MaterialSlot(IntEnum):
@@ -66,6 +66,8 @@ class MaterialSlot(IntEnum):
     ETGRID = 49       # offset of its roughness grid's energy table (views × entries; −1: none)
     WARPN = 50        # 1: sg's warped sub-lobes carry the lobe's exact warped integral (GGX
                       # materials with energy tables: render.energy); 0: the narrow-lobe 1/(o·g)
+    EMIT = 52         # emitted radiance (RGB; gltf_pbr `emissive`)
+    EMTEX = 55        # texture index of the emissive texture (−1: none), times EMIT
 
 
 # The packers index a record by these names (the `re` module's idiom for enum members).

@@ -18,7 +18,7 @@ from sgpipe.render import opencl
 from sgpipe.render.envdata import EnvData
 from sgpipe.render.headers import fh_coefficients, kernel_headers
 from sgpipe.render.materials import MaterialTable
-from sgpipe.render.methods import METHODS, PUBLISHED_SWITCHES, TORAL19_SWITCHES
+from sgpipe.render.methods import KERNELS, PUBLISHED_SWITCHES, TORAL19_SWITCHES
 from sgpipe.render.records import MAT_STRIDE, MaterialSlot, ObjectFloatSlot, ObjectSlot
 from sgpipe.render.textures import Textures  # noqa: F401  (the renderer's texture set)
 
@@ -210,10 +210,10 @@ class Renderer:
         per_scene = {"MAX_NDF_LOBES": max(1, mats.max_lobes),
                      "MAX_GMM_LOBES": max(1, mats.max_gmm_lobes),
                      "GMM_TAPS": max(1, self.gmm_taps), "GMM_ROTATE": self.gmm_carry}
-        d.update({k: per_scene[k] for k in METHODS[method].defines})
+        d.update({k: per_scene[k] for k in KERNELS[method].defines})
         d.update(self.env.rotation_defines())     # render.environment_rotation (cubemap.h)
         given_back = self._given_back(method)
-        for k, v in METHODS[method].fixed_defines:
+        for k, v in KERNELS[method].fixed_defines:
             if k in given_back:
                 continue
             if v is None:
@@ -258,7 +258,7 @@ class Renderer:
             return self._bindings[method]
         e, out = self.env, {}
         dev = lambda a, dt=np.float32: opencl.to_device(self.ctx, a, dtype=dt)  # noqa: E731
-        if any(name == "gmm_mip" for _, name in METHODS[method].parameters):
+        if any(name == "gmm_mip" for _, name in KERNELS[method].parameters):
             adds = self.gmm_toral19_adds if method == "gmm_toral19" else tuple(TORAL19_SWITCHES)
             if "cube_chain" not in adds:
                 dp = e.dp_chain()
@@ -281,7 +281,7 @@ class Renderer:
     def kernel(self, method: str):
         """The method's kernel (program built once per context and defines; kernel reused)."""
         if method not in self._kernels:
-            name = METHODS[method].kernel
+            name = KERNELS[method].kernel
             t0 = time.perf_counter()
             prg = opencl.build_program(self.ctx, name, self.defines(method), headers=self.headers)
             self.timings.setdefault(f"{method}_build_s", time.perf_counter() - t0)
@@ -303,6 +303,17 @@ class Renderer:
                     out=opencl.empty_device(self.ctx, 16 * max(len(fr.index), 1)))
 
     @property
+    def emissive(self) -> bool:
+        """Does a material emit (gltf_pbr `emissive`)?"""
+        r = self.materials.records
+        return bool(np.any(r[:, MaterialSlot.EMIT:MaterialSlot.EMIT + 3] > 0))
+
+    def emission(self, fr: Frame | dict) -> np.ndarray:
+        """Emitted radiance (n, 3) of the frame's pixels (kernels/emit_shade.cl), which every
+        method's image adds."""
+        return self.shade("emission", fr)
+
+    @property
     def _per_pixel_materials(self) -> bool:
         """Does a material take its parameters from textures per pixel (pixel_init writes
         each such pixel's record into the frame's `pxmat`)?"""
@@ -311,8 +322,8 @@ class Renderer:
 
     def shade(self, method: str, fr: Frame | dict, *, flags: int = 0, fis_samples: int = 40,
               gmm_interpolate: bool = True, mip_coverage: float = 0.9, seed: int = 0):
-        """Radiance (n, 3) of the frame's pixels with an OpenCL method of METHODS; `flags`:
-        records.KernelFlag bits."""
+        """Radiance (n, 3) of the frame's pixels with an OpenCL method of METHODS (or an
+        auxiliary kernel of AUX_KERNELS); `flags`: records.KernelFlag bits."""
         g = fr if isinstance(fr, dict) else self.upload_frame(fr)
         n = g["n"]
         if n == 0:
@@ -322,7 +333,7 @@ class Renderer:
                   "coverage": mip_coverage, "interp": 1 if gmm_interpolate else 0,
                   "nsamp": fis_samples, "seed": seed}
         args = [_SCALAR.get(ctype, _as_is)(values[name])
-                for ctype, name in METHODS[method].parameters]
+                for ctype, name in KERNELS[method].parameters]
         # an explicit work-group size: left to the runtime, PoCL's CPU device picks groups so
         # large for big frames that the per-work-item private arrays of the normal-map
         # kernels (lobe lists) overflow its thread stack (a segfault from 128² on)

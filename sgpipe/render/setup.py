@@ -99,6 +99,10 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
             m.ks_texture = textures.add(_image(t.ks_map, "render.material_textures.ks_map"),
                                         mip=True)
         m.gltf = _gltf_factors(gltf_textures(cfg, o, assets), textures)
+        m.emission, etex = emission_of(cfg, spec, o, assets)
+        if etex is not None:
+            m.emission_texture = textures.add(etex.image, mip=True, wrap=etex.wrap,
+                                              matrix=etex.matrix)
         names.append(o.material)
         mats.append(m)
     from sgpipe.render.energy import adopt_grid_lobes, attach_energy
@@ -231,6 +235,22 @@ def gltf_normal_texture(cfg, obj, assets: dict):
     if scale != 1.0:
         tex.image[..., :2] = ((2.0 * tex.image[..., :2] - 1.0) * scale + 1.0) * 0.5
     return tex
+
+
+def emission_of(cfg, spec, obj, assets: dict):
+    """(emitted radiance (3,): a `gltf_pbr` material's `emissive`, its glTF material's
+    emissive texture (sRGB-decoded) or None): what the surface emits is their product."""
+    e = np.zeros(3)
+    if spec.model == "gltf_pbr":
+        e = np.broadcast_to(np.asarray((spec.params or {}).get("emissive", 0.0), float),
+                            (3,)).copy()
+    if not e.any():
+        return e, None
+    found = _gltf_material(cfg, obj, assets)
+    if found is None:
+        return e, None
+    from sgpipe.io.gltf_textures import material_texture
+    return e, material_texture(found[1], found[2], "emissiveTexture")
 
 
 def gltf_textures(cfg, obj, assets: dict):

@@ -112,15 +112,21 @@ def run(cfg, out_dir: Path, *, force: bool = False):
             fdevs = [r.upload_frame(fr) for fr, _ in subframes]
             mip_cov = cfg.envmap.mip_coverage if cfg.envmap is not None else 0.9
             ss = f", {rs.supersample}x{rs.supersample} supersampled" if rs.supersample > 1 else ""
+            emitted = [None] * len(subframes)     # what the surfaces emit, added to each method
+            if r.emissive:
+                emitted = [_time_method(r, "emission", fdev, rs.timing_repeats)
+                           for fdev in fdevs]
             for m in shaders:
                 method = m.name
                 unshadowed = m.baseline_shadows and not rs.baseline_shadows
                 acc, sec = None, 0.0
-                for (fr, bg), fdev in zip(subframes, fdevs):
+                for (fr, bg), fdev, emit in zip(subframes, fdevs, emitted):
                     rgb, s_k = _time_method(
                         r, method, fdev, rs.timing_repeats, fis_samples=rs.fis_samples,
                         gmm_interpolate=rs.gmm_interpolate, mip_coverage=mip_cov,
                         flags=KernelFlag.NO_VISIBILITY if unshadowed else 0)
+                    if emit is not None:
+                        rgb, s_k = rgb + emit[0], s_k + emit[1]
                     img = fr.to_image(rgb, bg).astype(np.float64)
                     acc = img if acc is None else acc + img
                     sec += s_k
@@ -206,9 +212,11 @@ def reference_from_config(cfg, *, objects=None, env=None):
 
 def object_maps(cfg) -> list:
     """Per scene object the images the OpenCL methods read for it (sgpipe.reference.ObjectMaps):
-    its normal map and its material's kd / ks textures (render.material_textures)."""
+    its normal map, its material's kd / ks textures (render.material_textures), its textured
+    glTF material and what it emits."""
     from sgpipe.reference import ObjectMaps
-    from sgpipe.render.setup import gltf_normal_texture, read_texture
+    from sgpipe.render.setup import (emission_of, gltf_normal_texture, object_material_specs,
+                                     read_texture)
     tex = {t.material: t for t in cfg.render.material_textures}
     cache: dict = {}
     assets: dict = {}           # glTF files, read once for all their primitives' objects
@@ -219,14 +227,17 @@ def object_maps(cfg) -> list:
         return cache[path]
 
     out = []
+    specs = object_material_specs(cfg) if cfg.scene is not None else []
     for k, o in enumerate(cfg.scene.objects if cfg.scene is not None else []):
         t = tex.get(o.material)
+        emission, etex = emission_of(cfg, specs[k], o, assets)
         out.append(ObjectMaps(
             normal_map=gltf_normal_texture(cfg, o, assets) if o.normal_map is None
             else image(o.normal_map, f"scene.objects.{k}.normal_map"),
             kd_map=image(t.kd_map, "render.material_textures.kd_map") if t and t.kd_map else None,
             ks_map=image(t.ks_map, "render.material_textures.ks_map") if t and t.ks_map else None,
-            gltf=_gltf_surface(cfg, o, assets)))
+            gltf=_gltf_surface(cfg, o, assets),
+            emission=emission if emission.any() else None, emissive_texture=etex))
     return out
 
 

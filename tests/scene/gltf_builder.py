@@ -138,10 +138,13 @@ def textured_quad(base_img=None, mr_img=None, *, base=(1.0, 1.0, 1.0), metallic=
 
 
 def primitive_doc(p, n, uv, idx, images: dict, *, tangents=None, normal_scale=None,
-                  base=(1.0, 1.0, 1.0), metallic=1.0, roughness=1.0, wrap=33071) -> g.GLTF2:
+                  base=(1.0, 1.0, 1.0), metallic=1.0, roughness=1.0, wrap=33071,
+                  emissive=None, emissive_strength=None) -> g.GLTF2:
     """One indexed primitive (positions, normals, glTF UVs, optional TANGENT) with one
     material whose textures are PNGs: `images` {slot: (H, W, 3) image or None} for
-    baseColorTexture, metallicRoughnessTexture, normalTexture (with `normal_scale`)."""
+    baseColorTexture, metallicRoughnessTexture, normalTexture (with `normal_scale`) and
+    emissiveTexture; `emissive`: emissiveFactor, `emissive_strength`: the material's
+    KHR_materials_emissive_strength."""
     blob, views, accessors = b"", [], []
 
     def view(data: bytes, target=None) -> int:
@@ -169,7 +172,13 @@ def primitive_doc(p, n, uv, idx, images: dict, *, tangents=None, normal_scale=No
     images_, textures = [], []
     pbr = g.PbrMetallicRoughness(baseColorFactor=[*base, 1.0], metallicFactor=metallic,
                                  roughnessFactor=roughness)
-    material = g.Material(name="painted", pbrMetallicRoughness=pbr)
+    material = g.Material(name="painted", pbrMetallicRoughness=pbr,
+                          emissiveFactor=[0.0, 0.0, 0.0] if emissive is None else list(emissive))
+    used = []
+    if emissive_strength is not None:
+        material.extensions = {"KHR_materials_emissive_strength":
+                               {"emissiveStrength": emissive_strength}}
+        used.append("KHR_materials_emissive_strength")
     for slot, img in images.items():
         if img is None:
             continue
@@ -178,6 +187,8 @@ def primitive_doc(p, n, uv, idx, images: dict, *, tangents=None, normal_scale=No
         if slot == "normalTexture":
             material.normalTexture = g.NormalMaterialTexture(index=len(textures) - 1,
                                                              scale=normal_scale)
+        elif slot == "emissiveTexture":
+            material.emissiveTexture = g.TextureInfo(index=len(textures) - 1)
         else:
             setattr(pbr, slot, g.TextureInfo(index=len(textures) - 1))
     doc = g.GLTF2(asset=g.Asset(version="2.0"), scene=0, scenes=[g.Scene(nodes=[0])],
@@ -187,7 +198,7 @@ def primitive_doc(p, n, uv, idx, images: dict, *, tangents=None, normal_scale=No
                   materials=[material], images=images_, textures=textures,
                   samplers=[g.Sampler(wrapS=wrap, wrapT=wrap)],
                   accessors=accessors, bufferViews=views,
-                  buffers=[g.Buffer(byteLength=len(blob))], extensionsUsed=[],
+                  buffers=[g.Buffer(byteLength=len(blob))], extensionsUsed=used,
                   extensionsRequired=[])
     doc.set_binary_blob(blob)
     return doc

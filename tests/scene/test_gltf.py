@@ -194,6 +194,13 @@ def test_non_triangles_required_extension_and_factors(tmp_path):
             "materials[0].pbrMetallicRoughness.metallicFactor", "[0.0, 1.0]")
     missing = tmp_path / "missing.glb"
     _expect(missing, None, "not found")
+    doc = gb.build()
+    doc.materials[1].emissiveFactor = [0.2, 1.4, 0.0]
+    _expect(_glb(tmp_path, doc), "materials[1].emissiveFactor", "[0.0, 1.0]")
+    doc = gb.build()
+    doc.materials[0].extensions = {"KHR_materials_emissive_strength": {"emissiveStrength": -1}}
+    _expect(_glb(tmp_path, doc),
+            "materials[0].extensions.KHR_materials_emissive_strength.emissiveStrength", "-1")
 
 
 def test_cli_exit_2_one_line_nothing_written(tmp_path):

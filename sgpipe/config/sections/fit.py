@@ -21,7 +21,8 @@ class MaterialSpec:
                     "<out>/fit/<name>/. Letters, digits, '_', '-', '.'.")
     model: str = doc("BRDF model: lambert, blinn_phong, cook_torrance, ward, "
                      "ashikhmin_shirley, beckmann, ggx, gltf_pbr (glTF 2.0 metal-rough: "
-                     "base_color, metallic, roughness, anisotropy), merl (see sgpipe.brdf).",
+                     "base_color, metallic, roughness, anisotropy, emissive), merl (see "
+                     "sgpipe.brdf).",
                      "lambert")
     params: dict[str, Any] = doc("Model parameters, e.g. {alpha: 0.1, kd: [0.2, 0.1, 0.05], "
                                  "ks: 0.9, fresnel: schlick, f0: 0.04}.", default_factory=dict)
