@@ -296,6 +296,9 @@ def _materials(path: Path, doc) -> list[GltfMaterial]:
                     if pbr is not None and getattr(pbr, t, None) is not None]
         textures += [t for t in ("normalTexture", "occlusionTexture", "emissiveTexture")
                      if getattr(m, t, None) is not None]
+        textures += [f"KHR_materials_anisotropy.{k}" for k in ("anisotropyRotation",
+                                                               "anisotropyTexture")
+                     if aniso.get(k)]                   # reported as not read
         out.append(GltfMaterial(i, m.name or f"material{i}", rgb, metal, rough, strength,
                                 textures, emissive))
     return out
