@@ -15,7 +15,8 @@ PSNR corrected for the reference's noise:
   below vmf's floor;
 * `sphere-mixed-ward_aniso` (a sphere of anisotropic Ward, α up to 20:1, under a generated mixed
   map): transport with its lobe-sampled Gaussians; Green06's light-cube fit
-  (`transport.sampling: cube`) must fall below the floor.
+  (`transport.sampling: cube`, on the 162-vertex icosphere: the cube fit costs ~0.16 s per
+  vertex) must fall below the floor.
 
 Each floor sits below the raw (uncorrected) value measured at these settings and at least
 NOISE_MARGIN_DB under the reference's noise floor."""
@@ -46,8 +47,9 @@ VGROOVES_VMF_FLOOR_DB = 35.5
 SPHERE_LAMPS_VMF_FLOOR_DB = 34.0
 # measured vmf 31.9 dB (raw 31.2), sg of the unfiltered map 25.0; noise floor 39.0 dB
 SPHERE_SKY_VMF_FLOOR_DB = 30.5
-# measured transport 23.63 dB (raw 23.58), the light-cube fit 18.66; noise floor 42.8 dB
-WARD_ANISO_TRANSPORT_FLOOR_DB = 22.5
+# measured transport 49.8 dB (raw 42.0), the light-cube fit 17.2 (19.6 on the 642-vertex
+# icosphere); noise floor 42.8 dB
+WARD_ANISO_TRANSPORT_FLOOR_DB = 39.0
 
 
 def _scene(key: str, tmp: Path) -> dict:
@@ -112,6 +114,7 @@ def test_transport_lobe_floor_and_the_light_cube_fit_below_it(tmp_path):
     cfg = _scene("sphere-mixed-ward_aniso", tmp_path)
     r = measure(cfg, ("transport",), spp=SPP, out=tmp_path / "run", quiet=True)
     _holds(r, "transport", WARD_ANISO_TRANSPORT_FLOOR_DB)
-    cube = measure(cfg, ("transport",), ("transport.sampling=cube",), spp=SPP,
+    coarse = ("visibility.sphere_subdivisions=2", "transport.sphere_subdivisions=2")
+    cube = measure(cfg, ("transport",), coarse + ("transport.sampling=cube",), spp=SPP,
                    reference=r["reference"], out=tmp_path / "cube", quiet=True)
     assert _cell(cube, "transport")["surface_display_psnr_db"] < WARD_ANISO_TRANSPORT_FLOOR_DB
