@@ -1,9 +1,11 @@
 """glTF 2.0 scenes (`.gltf` + buffers, `.glb`) read with pygltflib: the node hierarchy's
-triangle primitives in world space and the metal-rough materials' factors.
+triangle primitives in world space (with MikkTSpace tangents where a material needs a tangent
+frame the file does not give: sgpipe.io.mikktspace) and the materials (sgpipe.io.gltf_materials).
 
     asset = read_gltf("helmet.glb")                  # structure, validated; no geometry yet
     asset.primitives                                 # [PrimitiveRef(node, mesh, primitive, ...)]
-    geo = primitive_geometry(asset, asset.primitives[0])   # positions / normals / uvs / faces
+    geo = primitive_geometry(asset, asset.primitives[0])   # positions / normals / uvs /
+                                                           # tangents / faces
 
 Conventions (docs/CONVENTIONS.md): glTF is right-handed with +Y up, as sgpipe's world; its UV
 origin is the image's top-left, so `v` becomes 1 − v (sgpipe follows OBJ: v = 0 is the bottom
@@ -22,12 +24,13 @@ import base64
 import re
 import struct
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from sgpipe.errors import BadInput
+from sgpipe.io.gltf_materials import GltfMaterial, read_materials  # noqa: F401
 
 #: extensions whose content sgpipe reads; a file that *requires* any other is refused
 SUPPORTED_EXTENSIONS = ("KHR_materials_anisotropy", "KHR_materials_emissive_strength")
@@ -49,28 +52,6 @@ class PrimitiveRef:
     primitive: int
     material: int | None
     matrix: np.ndarray            # (4, 4) node-to-world of the glTF scene
-
-
-@dataclass
-class GltfMaterial:
-    """A material's metal-rough factors (`gltf_pbr` parameters) and the textures it names."""
-
-    index: int
-    name: str
-    base_color: tuple[float, float, float]
-    metallic: float
-    roughness: float
-    anisotropy: float
-    textures: list[str] = field(default_factory=list)   # e.g. ["baseColorTexture"]
-    #: emissiveFactor × KHR_materials_emissive_strength (linear RGB radiance)
-    emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)
-
-    def params(self) -> dict:
-        out = {"base_color": list(self.base_color), "metallic": self.metallic,
-               "roughness": self.roughness, "anisotropy": self.anisotropy}
-        if any(self.emissive):
-            out["emissive"] = list(self.emissive)
-        return out
 
 
 @dataclass
@@ -260,50 +241,6 @@ def _walk(path: Path, doc) -> list[PrimitiveRef]:
     return out
 
 
-def _factor(path, el, v, lo=0.0, hi=1.0):
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:
-        _fail(path, el, f"must be a number in [{lo}, {hi}], got {v!r}")
-    return float(v)
-
-
-def _materials(path: Path, doc) -> list[GltfMaterial]:
-    out = []
-    for i, m in enumerate(doc.materials or []):
-        el = f"materials[{i}]"
-        pbr = m.pbrMetallicRoughness
-        base = [1.0, 1.0, 1.0, 1.0] if pbr is None or pbr.baseColorFactor is None \
-            else list(pbr.baseColorFactor)
-        if len(base) != 4:
-            _fail(path, f"{el}.pbrMetallicRoughness.baseColorFactor", "needs 4 numbers")
-        rgb = tuple(_factor(path, f"{el}.pbrMetallicRoughness.baseColorFactor", c)
-                    for c in base[:3])
-        metal = _factor(path, f"{el}.pbrMetallicRoughness.metallicFactor",
-                        1.0 if pbr is None or pbr.metallicFactor is None else pbr.metallicFactor)
-        rough = _factor(path, f"{el}.pbrMetallicRoughness.roughnessFactor",
-                        1.0 if pbr is None or pbr.roughnessFactor is None
-                        else pbr.roughnessFactor)
-        aniso = (m.extensions or {}).get("KHR_materials_anisotropy") or {}
-        strength = _factor(path, f"{el}.extensions.KHR_materials_anisotropy.anisotropyStrength",
-                           aniso.get("anisotropyStrength", 0.0))
-        emissive = list(m.emissiveFactor or [0.0, 0.0, 0.0])
-        if len(emissive) != 3:
-            _fail(path, f"{el}.emissiveFactor", "needs 3 numbers")
-        ext = (m.extensions or {}).get("KHR_materials_emissive_strength") or {}
-        strength_e = _factor(path, f"{el}.extensions.KHR_materials_emissive_strength."
-                             "emissiveStrength", ext.get("emissiveStrength", 1.0), hi=float("inf"))
-        emissive = tuple(strength_e * _factor(path, f"{el}.emissiveFactor", c) for c in emissive)
-        textures = [t for t in ("baseColorTexture", "metallicRoughnessTexture")
-                    if pbr is not None and getattr(pbr, t, None) is not None]
-        textures += [t for t in ("normalTexture", "occlusionTexture", "emissiveTexture")
-                     if getattr(m, t, None) is not None]
-        textures += [f"KHR_materials_anisotropy.{k}" for k in ("anisotropyRotation",
-                                                               "anisotropyTexture")
-                     if aniso.get(k)]                   # reported as not read
-        out.append(GltfMaterial(i, m.name or f"material{i}", rgb, metal, rough, strength,
-                                textures, emissive))
-    return out
-
-
 #: what a value of the wrong JSON type raises deep in the reading (pygltflib does not check
 #: the schema's types): a malformed file, reported as such
 _SCHEMA_ERRORS = (TypeError, ValueError, AttributeError, KeyError, IndexError, OverflowError)
@@ -320,7 +257,7 @@ def read_gltf(path: str | Path) -> GltfAsset:
     try:
         doc = _load_document(path)
         blobs = _buffers(path, doc)
-        return GltfAsset(path, doc, blobs, _walk(path, doc), _materials(path, doc))
+        return GltfAsset(path, doc, blobs, _walk(path, doc), read_materials(path, doc))
     except _SCHEMA_ERRORS as e:
         raise _malformed(path, e) from None
 
