@@ -31,6 +31,7 @@ import numpy as np
 
 from sgpipe.errors import BadInput
 from sgpipe.io.gltf_materials import GltfMaterial, read_materials  # noqa: F401
+from sgpipe.io.gltf_materials import fail as _fail
 
 #: extensions whose content sgpipe reads; a file that *requires* any other is refused
 SUPPORTED_EXTENSIONS = ("KHR_materials_anisotropy", "KHR_materials_emissive_strength")
@@ -61,10 +62,6 @@ class GltfAsset:
     blobs: list[bytes]            # buffers[i] contents
     primitives: list[PrimitiveRef]
     materials: list[GltfMaterial]
-
-
-def _fail(path, element, message):
-    raise BadInput(message, file=path, key=element)
 
 
 def _check_glb(path: Path, data: bytes) -> None:

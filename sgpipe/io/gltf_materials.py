@@ -10,7 +10,8 @@ from pathlib import Path
 from sgpipe.errors import BadInput
 
 
-def _fail(path, element, message):
+def fail(path, element, message):
+    """One BadInput naming the glTF file and the element (`materials[2].emissiveFactor`)."""
     raise BadInput(message, file=path, key=element)
 
 
@@ -38,7 +39,7 @@ class GltfMaterial:
 
 def _factor(path, el, v, lo=0.0, hi=1.0):
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:
-        _fail(path, el, f"must be a number in [{lo}, {hi}], got {v!r}")
+        fail(path, el, f"must be a number in [{lo}, {hi}], got {v!r}")
     return float(v)
 
 
@@ -52,7 +53,7 @@ def read_materials(path: Path, doc) -> list[GltfMaterial]:
         base = [1.0, 1.0, 1.0, 1.0] if pbr is None or pbr.baseColorFactor is None \
             else list(pbr.baseColorFactor)
         if len(base) != 4:
-            _fail(path, f"{el}.pbrMetallicRoughness.baseColorFactor", "needs 4 numbers")
+            fail(path, f"{el}.pbrMetallicRoughness.baseColorFactor", "needs 4 numbers")
         rgb = tuple(_factor(path, f"{el}.pbrMetallicRoughness.baseColorFactor", c)
                     for c in base[:3])
         metal = _factor(path, f"{el}.pbrMetallicRoughness.metallicFactor",
@@ -65,7 +66,7 @@ def read_materials(path: Path, doc) -> list[GltfMaterial]:
                            aniso.get("anisotropyStrength", 0.0))
         emissive = list(m.emissiveFactor or [0.0, 0.0, 0.0])
         if len(emissive) != 3:
-            _fail(path, f"{el}.emissiveFactor", "needs 3 numbers")
+            fail(path, f"{el}.emissiveFactor", "needs 3 numbers")
         ext = (m.extensions or {}).get("KHR_materials_emissive_strength") or {}
         strength_e = _factor(path, f"{el}.extensions.KHR_materials_emissive_strength."
                              "emissiveStrength", ext.get("emissiveStrength", 1.0), hi=float("inf"))

@@ -96,7 +96,8 @@ def _furnace_material(m, alpha: float, lobes):
     F0 = (1, 0, 0): its red channel is the F ≡ 1 response, green the (1 − o·h)⁵ one."""
     from dataclasses import replace
     return replace(m, name=f"{m.name}@{alpha:.4g}", kd=np.zeros(3), ks=np.ones(3), diffuse=2,
-                   fresnel=1, f0=np.array([1.0, 0.0, 0.0]), alpha_u=alpha, alpha_v=alpha, g_scale=1.0 / (4.0 * alpha * alpha),
+                   fresnel=1, f0=np.array([1.0, 0.0, 0.0]), alpha_u=alpha, alpha_v=alpha,
+                   g_scale=1.0 / (4.0 * alpha * alpha),
                    lobe_axis=np.tile([0.0, 0.0, 1.0], (len(lobes[0]), 1)),
                    lobe_lambda=np.asarray(lobes[0], float), lobe_mu=np.asarray(lobes[1], float),
                    asg_z=np.zeros((0, 3)), asg_x=np.zeros((0, 3)), asg_lambda=np.zeros(0),

@@ -304,14 +304,10 @@ class Renderer:
 
     @property
     def emissive(self) -> bool:
-        """Does a material emit (gltf_pbr `emissive`)?"""
+        """Does a material emit (gltf_pbr `emissive`)? Then the render stage adds the
+        auxiliary kernel `emission` (kernels/emit_shade.cl) to every method's image."""
         r = self.materials.records
         return bool(np.any(r[:, MaterialSlot.EMIT:MaterialSlot.EMIT + 3] > 0))
-
-    def emission(self, fr: Frame | dict) -> np.ndarray:
-        """Emitted radiance (n, 3) of the frame's pixels (kernels/emit_shade.cl), which every
-        method's image adds."""
-        return self.shade("emission", fr)
 
     @property
     def _per_pixel_materials(self) -> bool:
