@@ -37,6 +37,8 @@ class Ladder:
     #: what the page says the scenes are
     scenes_note: str = ("the fidelity corpus (docs/results/fidelity.md) without its "
                         "normal-mapped slots")
+    #: the ladder runs on the normal-mapped slots instead (Han07)
+    normal_mapped: bool = False
 
     def rungs(self) -> list[tuple[str, list[str]]]:
         """[(label, adds)]: published, then one improvement more per rung."""
@@ -44,21 +46,23 @@ class Ladder:
         return [("published", [])] + [(f"+ {n}", names[:k + 1]) for k, n in enumerate(names)]
 
 
-def _skip(slot_key: str, config: dict) -> bool:
-    objs = config["scene"]["objects"]
-    return slot_key.startswith(SKIP_PREFIXES) or any("normal_map" in o for o in objs)
+def _skip(slot_key: str, config: dict, normal_mapped: bool = False) -> bool:
+    mapped = any("normal_map" in o for o in config["scene"]["objects"])
+    if normal_mapped:
+        return not mapped
+    return slot_key.startswith(SKIP_PREFIXES) or mapped
 
 
 def measure_ladder(ladder: Ladder, out: Path, seeds, *, size: int, spp: int, only=None,
                    log=print) -> list[dict]:
-    """Every non-normal-mapped corpus scene (`only`: these slot keys) of every seed through
-    every rung."""
+    """Every non-normal-mapped corpus scene (normal-mapped for a `normal_mapped` ladder;
+    `only`: these slot keys) of every seed through every rung."""
     from sgpipe.experiments.corpus.measure import measure
     from sgpipe.experiments.fidelity import preview_exposure
     rows = []
     todo = [(seed, s) for seed in seeds
             for s in scenes(seed, out / "inputs", size=size, spp=spp, only=only)
-            if not _skip(s["key"], s["config"])]
+            if not _skip(s["key"], s["config"], ladder.normal_mapped)]
     t0 = time.perf_counter()
     for k, (seed, s) in enumerate(todo):
         s["config"]["render"]["preview_exposure"] = preview_exposure(s["config"])

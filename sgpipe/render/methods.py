@@ -124,7 +124,7 @@ TRANSPORT_PARAMS = """
 NM_PARAMS = """
     __global const float4 *nm_data, __global const int4 *nm_levels, __global const int4 *nm_info,
     __global const float *nm_brdf,
-    __global const float4 *nm_env_sh, const int n_env_sh,
+    __global const float4 *nm_env_sh, const int n_env_sh, __global const float4 *nm_env_sh8,
     __global const float4 *env_sg, const int n_env_sg, const float env_scale,
     __global const float4 *lights, const int n_lights,
     __global const float4 *pyr, __global const int *pyr_off, __global const int *pyr_res,
@@ -196,12 +196,32 @@ GREEN06_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
     "exact_lights": (("TP_GAUSSIAN_POINTS", 1),),
 }
 
+#: What makes `vmf_han07` Han07 §7–8 as published, one entry per sgpipe improvement that `vmf`
+#: has over the paper (its compile-time defines). `render.vmf_han07_adds` names improvements to
+#: give back — all of them make it `vmf` (a test checks). Both read the normal-map stage's
+#: pyramids as configured (Han07's own: normalmap.bilinear_samples: 1, the texels' normals).
+HAN07_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
+    # Algorithm 2: the trilinear MIP lookup of α_j, α_j·r_j (vmf: render.normalmap_footprint,
+    # the pixel's box over the level's texels with every texel's lobes kept apart)
+    "box": (("NM_PUB_TRILINEAR", 1),),
+    # eq 24 at level 0 too: the texels' delta lobes blended (vmf: bilinear-normal taps, as the
+    # map is read at full resolution)
+    "level0": (("NM_PUB_L0_BLEND", 1),),
+    # §8 eq 25: the environment's diffuse part through its SH, l ≤ 2, per lobe (vmf: the SG
+    # light sum at the heaviest lobes' axes and the rest of the mean normal, SSDF-shadowed)
+    "env_diffuse": (("NM_PUB_SH_DIFFUSE", 1),),
+    # §8 eq 26: the environment's specular part through the reparameterised lighting's SH,
+    # l* = 8, on a 16 × 16 table of views (vmf: each lobe warped to three sub-lobes through the
+    # Γ_L pyramid with the lobe-mean Fresnel and masking, the point set shaded exactly)
+    "env_specular": (("NM_PUB_SH_SPECULAR", 1),),
+}
+
 #: Each published variant's switch table, by method name.
 PUBLISHED_SWITCHES = {"sg_wang09": WANG09_SWITCHES, "gmm_toral19": TORAL19_SWITCHES,
-                      "transport_green06": GREEN06_SWITCHES}
+                      "transport_green06": GREEN06_SWITCHES, "vmf_han07": HAN07_SWITCHES}
 
 #: The Han07 normal-map methods (stable names: the figures build on them).
-NORMALMAP_METHODS = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh")
+NORMALMAP_METHODS = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh", "vmf_han07")
 
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sg", "Wang09 SG + SSDF shadows", "sg_shade",
@@ -238,6 +258,11 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("vmf", "Han07 vMF-filtered normal map (Algorithm 2, eq 20–21 lights, eq 24–26 "
            "environment)", "vmf_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS),
            needs_normalmap=True),
+    # Han07 §7–8 as published: vmf's kernel with every switch of HAN07_SWITCHES (docs/HAN07.md)
+    Method("vmf_han07", "Han07 as published (trilinear eq 24 lookup, eq 20–21 lights, §8 SH "
+           "environment at l* = 8)", "vmf_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS),
+           needs_normalmap=True,
+           fixed_defines=tuple(d for ds in HAN07_SWITCHES.values() for d in ds)),
     Method("normals_mip", "normalised MIP of the normal map (Han07 baseline)", "nmip_shade",
            (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
     Method("toksvig", "Toksvig-scaled exponent (roughness) from the MIP normal length",

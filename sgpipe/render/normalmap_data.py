@@ -4,7 +4,7 @@ the normal-map kernels `vmf`, `normals_mip`, `toksvig`, `engine_bake`, `nm_sh`
 
     data = NormalMapData.pack([per_object_pyramid_or_None, ...], params=[s or α, ...],
                               models=[...])
-    buffers = data.device_buffers(ctx)    # nm_data, nm_levels, nm_info, nm_brdf, nm_env_sh
+    buffers = data.device_buffers(ctx)    # nm_data, nm_levels, nm_info, nm_brdf, nm_env_sh, nm_env_sh8
 
 Layout (float4 `nm_data`): per map and level ℓ (side m) first the lobes, texel-major in image
 rows (row 0 = v = 1) then lobe j: (α_j, α_j·r_j) — eq 24's linear textures, interpolated before
@@ -16,7 +16,9 @@ per object: Blinn–Phong exponent s or microfacet roughness (Beckmann α, Cook�
 taps along the footprint's major axis (1: isotropic), model (BRDF_MODELS), K, ρ̂_0 … ρ̂_8 of the
 specular function the SH method filters (eq 11), environment specular on (1/0), footprint filter
 (0 trilinear, 1 box: render.normalmap_footprint), 0.
-`nm_env_sh` float4 per coefficient: the environment's radiance SH L_lm (world, l ≤ 2)."""
+`nm_env_sh` float4 per coefficient: the environment's radiance SH L_lm (world, l ≤ 2).
+`nm_env_sh8` one zero row here: vmf_han07 binds Han07 §8's tables in its place
+(Renderer.method_bindings, sgpipe.render.han07_env.environment_sh8)."""
 
 from __future__ import annotations
 
@@ -158,7 +160,8 @@ class NormalMapData:
                     nm_levels=opencl.to_device(ctx, self.levels, dtype=np.int32),
                     nm_info=opencl.to_device(ctx, self.info, dtype=np.int32),
                     nm_brdf=opencl.to_device(ctx, self.brdf.reshape(-1)),
-                    nm_env_sh=opencl.to_device(ctx, self.env_sh), n_env_sh=self.n_env_sh)
+                    nm_env_sh=opencl.to_device(ctx, self.env_sh), n_env_sh=self.n_env_sh,
+                    nm_env_sh8=opencl.to_device(ctx, np.zeros((1, 4), np.float32)))
 
 
 def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
@@ -195,9 +198,8 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
                                                 need_sh="nm_sh" in methods)
         pyramids.append(cache[name])
     taps = int(getattr(cfg.render, "normalmap_max_taps", 1))
-    rho = [None if p is None or p.gamma is None else
-           specular_sh_coeffs(model, param, int(round(math.sqrt(p.gamma[0].shape[-1]))) - 1)
-           for p, (model, param) in zip(pyramids, lobes)]
+    # ρ̂_l, l ≤ 8, of every object: nm_sh reads l ≤ its SH order, vmf_han07 all (eq 26)
+    rho = [specular_sh_coeffs(model, param, SH_LMAX) for model, param in lobes]
     data = NormalMapData.pack(pyramids, [prm for _, prm in lobes], taps,
                               [BRDF_MODELS[mdl] for mdl, _ in lobes], rho,
                               footprint=cfg.render.normalmap_footprint)

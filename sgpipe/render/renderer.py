@@ -102,6 +102,7 @@ class Renderer:
                  gmm_taps: int = 16, gmm_carry: str = "warp", gmm_points: bool = True,
                  sg_wang09_adds: tuple[str, ...] = (), gmm_toral19_adds: tuple[str, ...] = (),
                  transport_green06_adds: tuple[str, ...] = (),
+                 vmf_han07_adds: tuple[str, ...] = (),
                  materials_toral19: MaterialTable | None = None):
         self.ctx, self.queue = opencl.get_context()
         self.env, self.materials, self.objects = env, materials, list(objects)
@@ -111,6 +112,7 @@ class Renderer:
         self.sg_wang09_adds = tuple(sg_wang09_adds)
         self.gmm_toral19_adds = tuple(gmm_toral19_adds)
         self.transport_green06_adds = tuple(transport_green06_adds)
+        self.vmf_han07_adds = tuple(vmf_han07_adds)
         # `gmm_toral19`'s material table (its published per-view fit); None: `materials`'
         self.materials_toral19 = materials_toral19
         self._bindings: dict[str, dict] = {}
@@ -237,7 +239,8 @@ class Renderer:
     def _given_back(self, method: str) -> set[str]:
         """The defines of a published variant's switches that the config gives back."""
         adds = {"sg_wang09": self.sg_wang09_adds, "gmm_toral19": self.gmm_toral19_adds,
-                "transport_green06": self.transport_green06_adds}.get(method, ())
+                "transport_green06": self.transport_green06_adds,
+                "vmf_han07": self.vmf_han07_adds}.get(method, ())
         return {k for name in adds for k, _ in PUBLISHED_SWITCHES[method][name]}
 
     def method_materials(self, method: str) -> MaterialTable:
@@ -252,8 +255,8 @@ class Renderer:
         """The values `method` binds beyond `static` (built on first use): for gmm and
         gmm_toral19 the MIP chain the lobes read — the cube chain without the point set beside
         the points' exact vMF sum (render.gmm_points; the subtraction costs ~0.4 s at N = 128),
-        else the whole cube chain, or Töral19's dual-paraboloid chain — and gmm_toral19's
-        material table."""
+        else the whole cube chain, or Töral19's dual-paraboloid chain —, gmm_toral19's
+        material table, and vmf_han07's SH lighting tables (han07_env)."""
         if method in self._bindings:
             return self._bindings[method]
         e, out = self.env, {}
@@ -272,6 +275,9 @@ class Renderer:
                            gmm_mip_off=self.static["mip_off"], gmm_mip_res=self.static["mip_res"],
                            gmm_mip_n=self.static["mip_n"], gmm_dp_b=1.0,
                            n_gmm_pts=len(e.point_dirs) if res_mip is not e.mip else 0)
+        if method == "vmf_han07":       # Han07 §8: the map's SH and the L' table of views
+            from sgpipe.render.han07_env import environment_sh8
+            out["nm_env_sh8"] = dev(environment_sh8(e))
         mats = self.method_materials(method)
         if mats is not self.materials:
             out.update(mats=dev(mats.records), gmm=dev(mats.gmm))

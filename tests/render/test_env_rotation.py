@@ -187,7 +187,8 @@ def _render_all(env, light_sh, scene, rotation=None, methods=METHODS):
     from sgpipe.normalmap.pyramid import mean_normal_pyramid
     from sgpipe.normalmap.vmf import VMFSettings, fit_vmf_pyramid
     from sgpipe.render.materials import pack_materials
-    from sgpipe.render.normalmap_data import NormalMapData, NormalMapPyramid, attach_normalmaps
+    from sgpipe.render.normalmap_data import (NormalMapData, NormalMapPyramid, attach_normalmaps,
+                                              specular_sh_coeffs)
     from sgpipe.render.renderer import ObjectShading, Renderer
     from sgpipe.render.transport_data import transport_arrays, upload_transport
     fr, m, tp, normals = scene
@@ -197,7 +198,10 @@ def _render_all(env, light_sh, scene, rotation=None, methods=METHODS):
     p = fit_vmf_pyramid(normals, VMFSettings(lobes=2, kappa_max=1e4))
     pyr = NormalMapPyramid(p.alpha, p.alpha_r, [a.astype(np.float32)
                                                 for a in mean_normal_pyramid(normals)])
-    attach_normalmaps(r, NormalMapData.pack([pyr], [40.0]).with_environment(light_sh, True))
+    # ρ̂_l for vmf_han07's eq 26 (nm_sh reads them only with an SH pyramid, none here)
+    rho = [specular_sh_coeffs("blinn_phong", 40.0, 8)]
+    attach_normalmaps(r, NormalMapData.pack([pyr], [40.0], rho_hat=rho)
+                      .with_environment(light_sh, True))
     return {method: r.shade(method, fr).astype(np.float64) for method in methods}
 
 
@@ -238,9 +242,12 @@ def test_every_method_under_a_quarter_turn_equals_the_turned_environment(rolled)
     where the B-spline's face coordinate s and its mirror 1 − s round differently —, the
     others ≤ 1.3e-7); the rotation does change the images (> 5 %). `gmm_toral19`'s dual
     paraboloid is derived from the turned cube here, not turned texel for texel (a turn about
-    +Y is no permutation of its grid): tests/render/test_gmm_toral19.py turns it about +Z."""
+    +Y is no permutation of its grid): tests/render/test_gmm_toral19.py turns it about +Z.
+    `vmf_han07` neither: its 16 × 16 table of views (Han07 §8) is fixed to the map's frame, so
+    a turn that moves the views off the table's nodes changes its interpolation (5 % here, the
+    published method's own property); the +Z test below turns it by whole table cells."""
     for m in METHODS:
-        if m == "gmm_toral19":
+        if m in ("gmm_toral19", "vmf_han07"):
             continue
         assert _rel(rolled["got"][m], rolled["turned"][m]) < 1e-4, m
     for m, img in rolled["plain"].items():
@@ -262,6 +269,21 @@ def test_sg_gmm_fis_under_a_turn_that_cycles_the_axes(envs, scene):
         assert _rel(got[m], want[m]) < 1e-5, (m, _rel(got[m], want[m]))
 
 
+def test_vmf_han07_under_a_quarter_turn_about_z(envs, scene):
+    """A quarter turn about +Z maps the cube's texels and vmf_han07's 16 × 16 table of views
+    (φ in 22.5° cells) onto themselves: rotated = the turned arrays (1e-5), and the turn changes
+    the image."""
+    from sgpipe.render.transport_data import rotate_sh
+    _, A, sh, _, _ = envs
+    R = rotation_matrix([0, 0, 1], 90.0)
+    got = _render_all(A, sh, scene, rotation=R, methods=("vmf_han07",))["vmf_han07"]
+    want = _render_all(_turned_env(A, R), rotate_sh(sh, R), scene,
+                       methods=("vmf_han07",))["vmf_han07"]
+    plain = _render_all(A, sh, scene, methods=("vmf_han07",))["vmf_han07"]
+    assert _rel(got, want) < 1e-5, _rel(got, want)
+    assert _rel(plain, want) > 0.05
+
+
 def test_every_method_against_the_rebuilt_rolled_environment(rolled):
     """Roll the lat-long map by W/4 columns (exactly a quarter turn about +Y) and rebuild the
     envmap stage: rendering A rotated = rendering the rebuilt map. `transport` reads what the
@@ -275,7 +297,7 @@ def test_every_method_against_the_rebuilt_rolled_environment(rolled):
     and box-filtered on the paraboloid's grid, is not turn-invariant (9 % here, the published
     method's own property); its rotation is tested about +Z in test_gmm_toral19.py."""
     err = {m: _rel(rolled["got"][m], rolled["rebuilt"][m]) for m in METHODS
-           if m != "gmm_toral19"}
+           if m not in ("gmm_toral19", "vmf_han07")}
     print("rotated vs rebuilt:", {m: f"{e:.1e}" for m, e in err.items()})
     assert err["transport"] < 1e-5, err
     assert max(e for m, e in err.items() if m not in ("gmm", "fis")) < 3e-3, err

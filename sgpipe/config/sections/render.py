@@ -6,14 +6,15 @@ from dataclasses import dataclass
 from typing import Literal
 
 from sgpipe.config.schema import InputPath, doc
-from sgpipe.render.methods import (GREEN06_SWITCHES, METHOD_NAMES, METHODS, REFERENCE,
-                                   TORAL19_SWITCHES, WANG09_SWITCHES)
+from sgpipe.render.methods import (GREEN06_SWITCHES, HAN07_SWITCHES, METHOD_NAMES, METHODS,
+                                   REFERENCE, TORAL19_SWITCHES, WANG09_SWITCHES)
 
 #: A `render.methods` entry: an OpenCL method of the registry or the Monte Carlo `reference`.
 RenderMethod = Literal[METHOD_NAMES]
 Wang09Improvement = Literal[tuple(WANG09_SWITCHES)]
 Toral19Improvement = Literal[tuple(TORAL19_SWITCHES)]
 Green06Improvement = Literal[tuple(GREEN06_SWITCHES)]
+Han07Improvement = Literal[tuple(HAN07_SWITCHES)]
 
 
 @dataclass
@@ -189,6 +190,13 @@ class RenderSection:
         "BRDF's own lobes times the shadowed / unshadowed Gaussians' ratio, with "
         "transport.sampling: lobe), exact_lights (the exact specular BRDF at suns and sharp "
         "lights, with the SSDF horizon).", default_factory=list)
+    vmf_han07_adds: list[Han07Improvement] = doc(
+        "vmf_han07: sgpipe improvements to give back to Han07 §7–8 as published (all of them: "
+        "`vmf`; docs/HAN07.md): box (render.normalmap_footprint instead of the trilinear "
+        "lookup), level0 (bilinear-normal taps at level 0 instead of eq 24's blend of delta "
+        "lobes), env_diffuse (the SG light sum instead of eq 25's SH), env_specular (warped "
+        "lobes through the Γ_L pyramid and the point set exactly, instead of eq 26's SH at "
+        "l* = 8).", default_factory=list)
     compare_to: str | None = doc("Method whose image is the ground truth for `sgpipe compare`"
                                  " of every other method (usually `reference`); null: none.",
                                  None)

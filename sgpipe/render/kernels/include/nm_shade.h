@@ -1,6 +1,8 @@
 /* Han07 normal-map filtering (Algorithm 2, eq 12, 20–21, 24–26): helpers of the `vmf`,
  * `normals_mip`, `toksvig`, `engine_bake` and `nm_sh` kernels; their common body is
- * nm_shade_body.h, included inside each kernel, the filter chosen by NM_FILTER.
+ * nm_shade_body.h, included inside each kernel, the filter chosen by NM_FILTER. `vmf_han07`
+ * is the vmf kernel with methods.HAN07_SWITCHES' defines (NM_PUB_*: trilinear lookup, eq 24 at
+ * level 0, §8's SH environment in nm_env_sh.h).
  *   lookup  trilinear in the pixel's texture footprint (isotropic level log2 of the longer UV
  *           derivative in texels, or N taps along the longer one; sgpipe.scene.footprint), of
  *           α_j and α_j·r_j (eq 24), then r = αr/α, κ = (3|r| − |r|³)/(1 − |r|²), μ = r/|r|
@@ -311,6 +313,8 @@ inline void nm_sh_rotate9(const float *g, float3 t, float3 b, float3 n, float *w
     w[7] = 2.0f * Rx.z / c1;
     w[8] = (Rx.x - Ry.y) / c1;
 }
+
+#include "nm_env_sh.h"
 
 /* The normal-map kernels' prologue (shading.h's SHADE_PIXEL_PROLOGUE without its per-pixel
  * normal-map fetch and quaternion, which these methods replace by the filtered pyramids):

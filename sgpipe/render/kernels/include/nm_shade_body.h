@@ -32,7 +32,11 @@
      * unaligned lobes' α·r (eq 24) into one broad lobe between two texels' NDFs. Level 0 has
      * no lobes: a grid of bilinear-normal taps over the parallelogram, as the reference
      * samples it. */
+#ifdef NM_PUB_TRILINEAR
+    int box = 0;                        /* vmf_han07: Algorithm 2's trilinear MIP lookup */
+#else
     int box = info.w && bp[NM_FOOT_SLOT] > 0.5f;
+#endif
     int nbx = 0, bidx[NM_BOX_TEXELS];
     float bw[NM_BOX_TEXELS];
     if (info.w && box) {
@@ -116,8 +120,13 @@
      * reference read the map — the bilinearly interpolated normal, one sharp lobe per tap —
      * instead of eq 24's bilinear mix of the texels' delta lobes (which blurs every texel
      * boundary into a broad lobe: 33 dB vs 47 dB for the plain normal against the reference
-     * at 16×16 supersampling). The J lobes then come from level 1 alone, weighted f. */
+     * at 16×16 supersampling). The J lobes then come from level 1 alone, weighted f.
+     * vmf_han07 (NM_PUB_L0_BLEND): level 0's delta lobes through eq 24 as every level. */
+#ifdef NM_PUB_L0_BLEND
+    int at0 = 0;
+#else
     int at0 = info.w && l0 == info.x;
+#endif
     int n0c = min(ntap, NM_MAX_L0);
     float4 n0s[NM_MAX_L0];
     for (int k = 0; k < n0c; ++k) n0s[k] = (float4)(0.0f);
@@ -258,6 +267,13 @@
 #if NM_FILTER != NM_VMF
             acc += nm_env_diffuse_at(m, kd, o, nbar, T, B, N, env_sg, n_env_sg, env_scale,
                                      &vis);
+#elif defined(NM_PUB_SH_DIFFUSE)
+            /* vmf_han07: eq 25 per lobe, level 0's taps (κ = ∞) included */
+            float3 ed = (float3)(0.0f);
+            for (int j = 0; j < nlob; ++j)
+                ed += lp[j].x * nm_sh8_diffuse(nm_env_sh8, ax[j].xyz,
+                                               j < n0l ? 1e30f : nm_kappa_of(lrl[j]));
+            acc += kd * MF_INV_PI * fmax(ed * env_scale, 0.0f);
 #else
             /* linear in the NDF (eq 5), as the lights' diffuse: level 0's taps at n̄ as unit
              * normals; the coarser part per lobe — the NM_DIFF_LOBES heaviest lobes j at their
@@ -292,6 +308,17 @@
 #endif
         }
     }
+#if NM_FILTER == NM_VMF && defined(NM_PUB_SH_SPECULAR)
+    /* vmf_han07: eq 26 per lobe, the whole map (its point set too) through L' */
+    if (env_on && model != NM_LAMBERT) {
+        float3 es = (float3)(0.0f);
+        for (int j = 0; j < nlob; ++j)
+            es += lp[j].x * nm_sh8_factor(m, ks, model, ax[j].xyz, o, lp[j].w)
+                  * fmax(nm_sh8_specular(nm_env_sh8, bp + 4, o, ax[j].xyz,
+                                         j < n0l ? 1e30f : nm_kappa_of(lrl[j])), 0.0f);
+        acc += env_scale * es;
+    }
+#else
     if (env_on) {
         for (int j = 0; j < nlob; ++j)
             acc += lp[j].x * nm_spec_env(m, ks, model, ax[j].xyz, o, lp[j].y, lp[j].z, lp[j].w,
@@ -304,6 +331,7 @@
             acc += env_scale * nm_points(m, ks, model, ax, lp, nlob, o, T, B, N, &vis,
                                          pyr_pts, n_pts);
     }
+#endif
 #if NM_FILTER == NM_SH
     float yb[4 * NM_MAX_SH4];
 #endif
