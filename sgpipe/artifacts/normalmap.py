@@ -92,12 +92,13 @@ def write_vmf(sink, name: str, alpha: list, alpha_r: list, *, kappa_max: float,
 
 def write_sh(sink, name: str, gamma: list, lmax: int) -> None:
     """`sh.npz`: gamma_LL (m, m, (l*+1)²) float32 (sgpipe.core.sh order); EXR atlas `sh_ndf.exr`
-    with one channel per coefficient, named cKK_lLmM (KK = the index, so that EXR's sorted
-    channel order is the coefficient order)."""
+    with one channel per coefficient, named cKK_lLmM (KK = the index, zero-padded to 3 digits
+    from l* = 10 on, so that EXR's sorted channel order is the coefficient order)."""
     sink.write_npz(map_file(name, SH), {**_levels_arrays("gamma", gamma),
                                         "levels": np.int32(len(gamma)),
                                         "lmax": np.int32(lmax)})
-    chans = [f"c{l * (l + 1) + m:02d}_l{l}m{m:+d}" for l in range(lmax + 1)
+    width = 2 if (lmax + 1) ** 2 <= 100 else 3
+    chans = [f"c{l * (l + 1) + m:0{width}d}_l{l}m{m:+d}" for l in range(lmax + 1)
              for m in range(-l, l + 1)]
     sink.write_exr(map_file(name, "sh_ndf.exr"), atlas(gamma), png=False, channel_names=chans,
                    metadata={"normal_map": name, "lmax": lmax, "layout": "mip_atlas"})

@@ -216,12 +216,27 @@ HAN07_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
     "env_specular": (("NM_PUB_SH_SPECULAR", 1),),
 }
 
+#: What makes `nm_sh_han07` Han07 §5 as published, one entry per sgpipe improvement that
+#: `nm_sh` has over the paper (its compile-time defines; `render.nm_sh_han07_adds`). The
+#: published variant needs normalmap.sh_order ≥ ⌈√(4s)⌉ (the render stage says so).
+HAN07_SH_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
+    # the trilinear MIP lookup of γ_lm (nm_sh: render.normalmap_footprint's box)
+    "box": (("NM_PUB_TRILINEAR", 1),),
+    # level 0's γ_lm = Y_lm(n) blended as every level's (nm_sh: the bare material at the
+    # bilinear normal, a delta NDF that l ≤ l* cannot hold)
+    "level0": (("NM_PUB_L0_BLEND", 1),),
+    # §5: eq 12 truncated at l* ≈ √(4s) (nm_sh: every band the pyramid stores)
+    "bands": (("NM_PUB_SH_LSTAR", 1),),
+}
+
 #: Each published variant's switch table, by method name.
 PUBLISHED_SWITCHES = {"sg_wang09": WANG09_SWITCHES, "gmm_toral19": TORAL19_SWITCHES,
-                      "transport_green06": GREEN06_SWITCHES, "vmf_han07": HAN07_SWITCHES}
+                      "transport_green06": GREEN06_SWITCHES, "vmf_han07": HAN07_SWITCHES,
+                      "nm_sh_han07": HAN07_SH_SWITCHES}
 
 #: The Han07 normal-map methods (stable names: the figures build on them).
-NORMALMAP_METHODS = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh", "vmf_han07")
+NORMALMAP_METHODS = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh", "vmf_han07",
+                     "nm_sh_han07")
 
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sg", "Wang09 SG + SSDF shadows", "sg_shade",
@@ -272,6 +287,10 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            needs_normalmap=True),
     Method("nm_sh", "Han07 §5 SH-filtered normal map (eq 12: γ_lm × ρ̂_l)", "nmsh_shade",
            (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
+    # Han07 §5 as published: nm_sh's kernel with every switch of HAN07_SH_SWITCHES
+    Method("nm_sh_han07", "Han07 §5 as published (trilinear γ_lm, eq 12 at l* = ⌈√(4s)⌉)",
+           "nmsh_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True,
+           fixed_defines=tuple(d for ds in HAN07_SH_SWITCHES.values() for d in ds)),
 )}
 
 #: `render.methods` choices: the OpenCL methods and the Monte Carlo ground truth.

@@ -13,9 +13,10 @@ NDF coefficients γ_lm (⌈K/4⌉ float4 per texel, K = (l* + 1)², zero-padded)
 `nm_levels` int4 per (map, level): (lobe offset, side, mean offset, SH offset). `nm_info` int4
 per scene object: (first level row, levels, lobes J, has map). `nm_brdf` NM_BRDF_STRIDE floats
 per object: Blinn–Phong exponent s or microfacet roughness (Beckmann α, Cook–Torrance m), max
-taps along the footprint's major axis (1: isotropic), model (BRDF_MODELS), K, ρ̂_0 … ρ̂_8 of the
-specular function the SH method filters (eq 11), environment specular on (1/0), footprint filter
-(0 trilinear, 1 box: render.normalmap_footprint), 0.
+taps along the footprint's major axis (1: isotropic), model (BRDF_MODELS), K (slots 0–3);
+environment specular on (1/0, slot 13), footprint filter (0 trilinear, 1 box:
+render.normalmap_footprint, slot 14); ρ̂_0 … ρ̂_16 of the specular function the SH method filters
+(eq 11, slots RHO0 …); the rest 0.
 `nm_env_sh` float4 per coefficient: the environment's radiance SH L_lm (world, l ≤ 2).
 `nm_env_sh8` one zero row here: vmf_han07 binds Han07 §8's tables in its place
 (Renderer.method_bindings, sgpipe.render.han07_env.environment_sh8)."""
@@ -33,12 +34,13 @@ from sgpipe.errors import BadInput
 
 #: Material models the kernels shade (nm_shade.h NM_LAMBERT … NM_COOK) → model code.
 BRDF_MODELS = {"lambert": 0, "blinn_phong": 1, "beckmann": 2, "cook_torrance": 3}
-BRDF_STRIDE = 16     # nm_shade.h NM_BRDF_STRIDE
-RHO0 = 4             # first ρ̂_l slot
+BRDF_STRIDE = 36     # nm_shade.h NM_BRDF_STRIDE
+RHO0 = 16            # first ρ̂_l slot (nm_shade.h NM_RHO_SLOT)
 ENV_SLOT = 13        # environment specular on
 FOOT_SLOT = 14       # footprint filter (nm_shade.h NM_FOOT_SLOT): 0 trilinear, 1 box
 FOOTPRINTS = {"trilinear": 0, "box": 1}
-SH_LMAX = 8          # l* ≤ 8 (nm_shade.h NM_MAX_SH4 = 21 float4)
+SH_LMAX = 16         # l* ≤ 16 (nm_shade.h NM_MAX_SH4 = 73 float4)
+SH_METHODS = {"nm_sh", "nm_sh_han07"}      # the methods that read the SH pyramid
 
 
 @dataclass
@@ -195,8 +197,15 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
                            file=index, key=f"scene.objects.{k}.normal_map")
         if name not in cache:
             cache[name] = NormalMapPyramid.load(nm_dir, name, need_vmf="vmf" in methods,
-                                                need_sh="nm_sh" in methods)
+                                                need_sh=bool(methods & SH_METHODS))
         pyramids.append(cache[name])
+        if "nm_sh_han07" in methods:
+            stored = int(round(math.sqrt(cache[name].gamma[0].shape[-1]))) - 1
+            need = published_sh_order(*lobes[k])
+            if stored < need:
+                raise BadInput(f"nm_sh_han07 (Han07 §5: l* ≈ √(4s)) needs SH order {need} for "
+                               f"object {o.name!r} ({lobes[k][0]} {lobes[k][1]:g}); its pyramid "
+                               f"stores {stored}", key="normalmap.sh_order")
     taps = int(getattr(cfg.render, "normalmap_max_taps", 1))
     # ρ̂_l, l ≤ 8, of every object: nm_sh reads l ≤ its SH order, vmf_han07 all (eq 26)
     rho = [specular_sh_coeffs(model, param, SH_LMAX) for model, param in lobes]
@@ -208,6 +217,16 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
         from sgpipe.artifacts.envmap import read_light_sh
         light_sh = np.asarray(read_light_sh(Path(out_dir) / "envmap")["coeffs"], np.float64)
     return data.with_environment(light_sh, cfg.envmap is not None)
+
+
+def published_sh_order(model: str, param: float) -> int:
+    """Han07 §5's l* ≈ √(4s), rounded up and at least Lambert's 2: s the Blinn–Phong exponent,
+    or a microfacet roughness's equivalent exponent 2/α² − 2 (nm_shade_body.h,
+    NM_PUB_SH_LSTAR)."""
+    if model == "lambert":
+        return 2
+    s = param if model == "blinn_phong" else 2.0 / param ** 2 - 2.0
+    return max(int(math.ceil(math.sqrt(4.0 * max(s, 0.0)) - 1e-4)), 2)
 
 
 def material_lobe(spec) -> tuple[str, float]:

@@ -102,7 +102,7 @@ class Renderer:
                  gmm_taps: int = 16, gmm_carry: str = "warp", gmm_points: bool = True,
                  sg_wang09_adds: tuple[str, ...] = (), gmm_toral19_adds: tuple[str, ...] = (),
                  transport_green06_adds: tuple[str, ...] = (),
-                 vmf_han07_adds: tuple[str, ...] = (),
+                 vmf_han07_adds: tuple[str, ...] = (), nm_sh_han07_adds: tuple[str, ...] = (),
                  materials_toral19: MaterialTable | None = None):
         self.ctx, self.queue = opencl.get_context()
         self.env, self.materials, self.objects = env, materials, list(objects)
@@ -113,6 +113,7 @@ class Renderer:
         self.gmm_toral19_adds = tuple(gmm_toral19_adds)
         self.transport_green06_adds = tuple(transport_green06_adds)
         self.vmf_han07_adds = tuple(vmf_han07_adds)
+        self.nm_sh_han07_adds = tuple(nm_sh_han07_adds)
         # `gmm_toral19`'s material table (its published per-view fit); None: `materials`'
         self.materials_toral19 = materials_toral19
         self._bindings: dict[str, dict] = {}
@@ -240,7 +241,8 @@ class Renderer:
         """The defines of a published variant's switches that the config gives back."""
         adds = {"sg_wang09": self.sg_wang09_adds, "gmm_toral19": self.gmm_toral19_adds,
                 "transport_green06": self.transport_green06_adds,
-                "vmf_han07": self.vmf_han07_adds}.get(method, ())
+                "vmf_han07": self.vmf_han07_adds,
+                "nm_sh_han07": self.nm_sh_han07_adds}.get(method, ())
         return {k for name in adds for k, _ in PUBLISHED_SWITCHES[method][name]}
 
     def method_materials(self, method: str) -> MaterialTable:

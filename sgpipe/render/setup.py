@@ -127,6 +127,7 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
                         gmm_toral19_adds=tuple(rs.gmm_toral19_adds),
                         transport_green06_adds=tuple(rs.transport_green06_adds),
                         vmf_han07_adds=tuple(rs.vmf_han07_adds),
+                        nm_sh_han07_adds=tuple(rs.nm_sh_han07_adds),
                         materials_toral19=pack_materials(
                             [replace(m, gmm=m.gmm_toral19) for m in mats])
                         if published_gmm else None)

@@ -33,7 +33,8 @@ def _config(tmp, normal_map, methods, *, repeat=None, env=True, size=24, spp=16)
         "scene": {"objects": [obj]},
         "fit": {"materials": [{"name": "rough", "model": "beckmann",
                                "params": {"alpha": 0.25, "kd": 0.2, "ks": 0.8}}]},
-        "normalmap": {"lobes": 2, "sh_order": 2, "align": False},
+        # sh_order 11: nm_sh_han07's l* = ⌈√(4s)⌉ of α 0.25 (s = 2/α² − 2 = 30)
+        "normalmap": {"lobes": 2, "sh_order": 11, "align": False},
         "render": {"camera": {"eye": [0, 2.5, 5.0], "target": [0, 0, 0], "fov_deg": 40,
                               "width": size, "height": size},
                    "methods": methods, "spp": spp, "normalmap_max_taps": 4,

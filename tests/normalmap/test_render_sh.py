@@ -50,14 +50,15 @@ def _trilinear(levels, u, v, lod):
     return a * (1 - f) + (bilinear(levels[l1].astype(np.float64), u, v) * f if f > 0 else 0)
 
 
-def _nm_sh_pixel(model, param, kd, ks, pyr, lmax, uv, lod, view):
+def _nm_sh_pixel(model, param, kd, ks, pyr, lmax, uv, lod, view, level0_taps=True):
     """numpy eq 12 for one pixel of the flat frame (n = z): diffuse Σ_{l≤2} Â_l γ_lm Y_lm(i),
-    specular max(Σ ρ̂_l γ_lm Y_lm(h), 0) with the model's other factors at n̄. Below lod 1,
-    level 0's weight 1 − f is the bare material at the bilinear normal (a delta NDF) and γ_lm
-    level 1's alone, weighted f."""
+    specular max(Σ_{l ≤ lmax} ρ̂_l γ_lm Y_lm(h), 0) with the model's other factors at n̄. Below
+    lod 1, level 0's weight 1 − f is the bare material at the bilinear normal (a delta NDF) and
+    γ_lm level 1's alone, weighted f; without `level0_taps` (nm_sh_han07) γ_lm are trilinear at
+    every level."""
     lod = max(lod, 0.0)
     mean = _trilinear(pyr.mean, uv[0], uv[1], lod)
-    if lod >= 1.0:
+    if lod >= 1.0 or not level0_taps:
         g, base = _trilinear(pyr.gamma, uv[0], uv[1], lod), 0.0
     else:
         g = lod * bilinear(pyr.gamma[1].astype(np.float64), uv[0], uv[1])
@@ -109,6 +110,68 @@ def test_nm_sh_matches_numpy_eq12(model, param, lmax):
                                  views[k]) for k in range(n)])
     assert ref.max() > 0.05
     np.testing.assert_allclose(img, ref, rtol=2e-3, atol=2e-4 * ref.max())
+
+
+def _frame_cases(n, seed=2):
+    rng = np.random.default_rng(seed)
+    uv = rng.uniform(0, 1, (n, 2))
+    texels = 2.0 ** np.linspace(-1, 5, n)
+    duv = np.zeros((n, 4))
+    duv[:, 0] = duv[:, 3] = texels / SIDE                 # square footprints: lod = log2 texels
+    th, ph = np.radians(rng.uniform(0, 60, n)), rng.uniform(-np.pi, np.pi, n)
+    views = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], -1)
+    return uv, texels, duv, views
+
+
+@pytest.mark.parametrize("model,param,stored,lstar", [("blinn_phong", 9.0, 8, 6),
+                                                      ("beckmann", 0.5, 8, 5),
+                                                      ("blinn_phong", 60.0, 16, 16)])
+def test_nm_sh_han07_truncates_eq12_at_sqrt_4s(model, param, stored, lstar):
+    """nm_sh_han07 (§5 as published): eq 12 over bands l ≤ l* = ⌈√(4s)⌉ (Beckmann: s = 2/α² − 2)
+    of a pyramid stored deeper, γ_lm trilinear at every level including level 0's Y_lm(n) —
+    against numpy; `nm_sh` with the same pyramid uses every stored band (and differs). The
+    s = 60 case stores l* = 16, the deepest pyramid the kernels take."""
+    from sgpipe.render.normalmap_data import published_sh_order
+    assert published_sh_order(model, param) == lstar
+    pyr = _sh_pyramid(_map(3), stored)
+    n = 32
+    uv, texels, duv, views = _frame_cases(n)
+    kd, ks = 0.3, 0.7
+    rho = specular_sh_coeffs(model, param, 16)
+    r = renderer(model, param, pyr, kd=kd, ks=ks, lights=[directional(LIGHT)], rho=rho)
+    img = r.shade("nm_sh_han07", flat_frame(views, uv, duv))[:, 0]
+    ref = np.array([_nm_sh_pixel(model, param, kd, ks, pyr, lstar, uv[k],
+                                 math.log2(texels[k]), views[k], level0_taps=False)
+                    for k in range(n)])
+    assert ref.max() > 0.05
+    np.testing.assert_allclose(img, ref, rtol=2e-3, atol=2e-4 * ref.max())
+    if stored > lstar:
+        full = r.shade("nm_sh", flat_frame(views, uv, duv))[:, 0]
+        assert np.abs(full - img).max() > 1e-3 * ref.max()
+
+
+def test_nm_sh_han07_adds_give_nm_sh_back():
+    """All of render.nm_sh_han07_adds: nm_sh bit for bit (box footprint, level-0 taps, every
+    band); each add alone changes the published image."""
+    from sgpipe.render.methods import HAN07_SH_SWITCHES
+    pyr = _sh_pyramid(_map(4), 8)
+    uv, _, duv, views = _frame_cases(24, seed=6)
+    rho = specular_sh_coeffs("blinn_phong", 9.0, 16)
+
+    def shade(method, adds):
+        _, m = material("blinn_phong", 9.0, 0.3, 0.7)
+        r = Renderer(env=EnvData.constant(0.0), materials=pack_materials([m]),
+                     objects=[ObjectShading(0, normal_map=-1)], lights=[directional(LIGHT)],
+                     nm_sh_han07_adds=tuple(adds))
+        attach_normalmaps(r, NormalMapData.pack([pyr], [9.0], 1, [BRDF_MODELS["blinn_phong"]],
+                                                [rho], footprint="box"))
+        return r.shade(method, flat_frame(views, uv, duv))
+
+    published = shade("nm_sh_han07", ())
+    np.testing.assert_array_equal(shade("nm_sh_han07", tuple(HAN07_SH_SWITCHES)),
+                                  shade("nm_sh", ()))
+    for name in HAN07_SH_SWITCHES:
+        assert np.abs(shade("nm_sh_han07", (name,)) - published).max() > 1e-4, name
 
 
 def test_nm_sh_lambert_converges_to_the_texel_average():

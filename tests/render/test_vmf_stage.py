@@ -70,18 +70,35 @@ def test_non_blinn_phong_material_is_refused(tmp_path):
         load_normalmap_data(conf, tmp_path / "out", object_material_specs(conf))
 
 
+def test_nm_sh_han07_refuses_a_pyramid_below_sqrt_4s(rendered, tmp_path):
+    """The stage's SH pyramid holds l ≤ 4 (normalmap.sh_order's default); Blinn–Phong s = 60
+    needs l* = ⌈√240⌉ = 16 (Han07 §5): one line naming the key and both orders."""
+    from sgpipe.render.normalmap_data import load_normalmap_data
+    from sgpipe.render.setup import object_material_specs
+    conf = _config(tmp_path)
+    conf = load_config(tmp_path / "c.yaml", ["render.methods=[nm_sh_han07]",
+                                             "render.compare_to=null"])
+    with pytest.raises(BadInput, match=r"needs SH order 16 .* stores 4") as e:
+        load_normalmap_data(conf, rendered, object_material_specs(conf))
+    assert e.value.key == "normalmap.sh_order"
+
+
 def test_large_frame_renders(tmp_path):
     """A 256² frame of every normal-map method: with the runtime's own work-group size PoCL
     picked groups whose per-work-item lobe arrays overflowed its thread stack (a segfault of
     the whole process from 128² on); the renderer launches fixed groups (LOCAL_SIZE)."""
     conf = _config(tmp_path)
+    methods = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh", "vmf_han07",
+               "nm_sh_han07")
     conf = load_config(tmp_path / "c.yaml", [
         "render.camera.width=256", "render.camera.height=256", "render.compare_to=null",
-        "render.methods=[vmf, normals_mip, toksvig, engine_bake, nm_sh]"])
+        f"render.methods=[{', '.join(methods)}]",
+        # nm_sh_han07 at s = 9 reads l* = 6 (the kernels' γ arrays hold l ≤ 16 either way)
+        "fit.materials.0.params.exponent=9", "normalmap.sh_order=6"])
     from sgpipe.stages import fit, normalmap, render
     out = tmp_path / "out"
     for stage in (fit, normalmap, render):
         stage.run(conf, out)
-    for m in ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh"):
+    for m in methods:
         img = read_exr(out / "render" / f"{m}.exr")
         assert img.shape == (256, 256, 3) and np.isfinite(img).all() and img.max() > 0

@@ -21,8 +21,8 @@ class NormalmapSection:
         default_factory=lambda: ["vmf", "sh", "baselines"])
     lobes: int = doc("vMF lobes J per texel (Han07 Fig 7: about four suffice).", 4, ge=1, le=8)
     sh_order: int = doc("Highest SH band l* of the NDF coefficients ((l*+1)² per texel; 2 "
-                        "suffices for Lambert, l* ~ √(4s) for Blinn–Phong exponent s).", 4,
-                        ge=0, le=8)
+                        "suffices for Lambert, l* ~ √(4s) for Blinn–Phong exponent s; "
+                        "nm_sh_han07 needs that).", 4, ge=0, le=16)
     levels: int | None = doc("MIP levels to build from the full-resolution map down "
                              "(null = every level down to 1×1).", None, ge=1)
     bilinear_samples: Literal[1, 2, 4] = doc(

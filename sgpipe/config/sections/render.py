@@ -6,8 +6,9 @@ from dataclasses import dataclass
 from typing import Literal
 
 from sgpipe.config.schema import InputPath, doc
-from sgpipe.render.methods import (GREEN06_SWITCHES, HAN07_SWITCHES, METHOD_NAMES, METHODS,
-                                   REFERENCE, TORAL19_SWITCHES, WANG09_SWITCHES)
+from sgpipe.render.methods import (GREEN06_SWITCHES, HAN07_SH_SWITCHES, HAN07_SWITCHES,
+                                   METHOD_NAMES, METHODS, REFERENCE, TORAL19_SWITCHES,
+                                   WANG09_SWITCHES)
 
 #: A `render.methods` entry: an OpenCL method of the registry or the Monte Carlo `reference`.
 RenderMethod = Literal[METHOD_NAMES]
@@ -15,6 +16,7 @@ Wang09Improvement = Literal[tuple(WANG09_SWITCHES)]
 Toral19Improvement = Literal[tuple(TORAL19_SWITCHES)]
 Green06Improvement = Literal[tuple(GREEN06_SWITCHES)]
 Han07Improvement = Literal[tuple(HAN07_SWITCHES)]
+Han07ShImprovement = Literal[tuple(HAN07_SH_SWITCHES)]
 
 
 @dataclass
@@ -197,6 +199,11 @@ class RenderSection:
         "lobes), env_diffuse (the SG light sum instead of eq 25's SH), env_specular (warped "
         "lobes through the Γ_L pyramid and the point set exactly, instead of eq 26's SH at "
         "l* = 8).", default_factory=list)
+    nm_sh_han07_adds: list[Han07ShImprovement] = doc(
+        "nm_sh_han07: sgpipe improvements to give back to Han07 §5 as published (all of them: "
+        "`nm_sh`; docs/HAN07.md): box (render.normalmap_footprint instead of the trilinear "
+        "lookup), level0 (the bare material at level 0's bilinear normals instead of their "
+        "γ_lm), bands (every stored SH band instead of l* = ⌈√(4s)⌉).", default_factory=list)
     compare_to: str | None = doc("Method whose image is the ground truth for `sgpipe compare`"
                                  " of every other method (usually `reference`); null: none.",
                                  None)

@@ -2,7 +2,8 @@
  * `normals_mip`, `toksvig`, `engine_bake` and `nm_sh` kernels; their common body is
  * nm_shade_body.h, included inside each kernel, the filter chosen by NM_FILTER. `vmf_han07`
  * is the vmf kernel with methods.HAN07_SWITCHES' defines (NM_PUB_*: trilinear lookup, eq 24 at
- * level 0, §8's SH environment in nm_env_sh.h).
+ * level 0, §8's SH environment in nm_env_sh.h), `nm_sh_han07` the nm_sh kernel with
+ * HAN07_SH_SWITCHES' (trilinear γ_lm at every level, eq 12 truncated at l* = ⌈√(4s)⌉).
  *   lookup  trilinear in the pixel's texture footprint (isotropic level log2 of the longer UV
  *           derivative in texels, or N taps along the longer one; sgpipe.scene.footprint), of
  *           α_j and α_j·r_j (eq 24), then r = αr/α, κ = (3|r| − |r|³)/(1 − |r|²), μ = r/|r|
@@ -52,8 +53,9 @@
 #define NM_INV_2PI 0.159154943091895f
 #define NM_MAX_LOBES 8      /* normalmap.lobes ≤ 8 */
 #define NM_MAX_L0 16        /* level-0 normals kept apart (more taps: summed modulo 16) */
-#define NM_MAX_SH4 21       /* float4 of γ_lm per texel: (l* + 1)² ≤ 81 */
-#define NM_BRDF_STRIDE 16   /* floats per object in nm_brdf */
+#define NM_MAX_SH4 73       /* float4 of γ_lm per texel: (l* + 1)² ≤ 289 (l* ≤ 16) */
+#define NM_BRDF_STRIDE 36   /* floats per object in nm_brdf */
+#define NM_RHO_SLOT 16      /* nm_brdf: ρ̂_0 … ρ̂_16 of the specular function (eq 11) */
 #define NM_LAMBERT 0
 #define NM_BLINN 1
 #define NM_BECKMANN 2

@@ -144,12 +144,26 @@
     int nsh = info.w ? min((int)bp[3], 4 * NM_MAX_SH4) : 0;
     int k4 = (nsh + 3) / 4;
     int lsh = (int)(sqrt((float)nsh) + 0.5f) - 1;
+#ifdef NM_PUB_SH_LSTAR
+    /* §5: l* ≈ √(4s), s the Blinn–Phong exponent (microfacet: its equivalent 2/α² − 2), at
+     * least Lambert's 2; the render stage refuses a pyramid stored below it */
+    {
+        int model0 = (int)bp[2];
+        float se = model0 == NM_BLINN ? s : (model0 == NM_LAMBERT ? 0.0f : 2.0f / (s * s) - 2.0f);
+        lsh = min(lsh, max((int)ceil(sqrt(4.0f * fmax(se, 0.0f)) - 1e-4f), 2));
+    }
+#endif
     float g[4 * NM_MAX_SH4];
     for (int k = 0; k < 4 * k4; ++k) g[k] = 0.0f;
     /* Level 0 (weight 1 − f) read as vmf reads it, the bilinear normal, one sharp lobe of the
      * bare material per tap: its NDF is a delta, which l ≤ l* cannot hold (a Blinn–Phong
-     * s = 60 lobe needs l ≈ 15). Eq 12's γ_lm then come from level 1 alone, weighted f. */
+     * s = 60 lobe needs l ≈ 15). Eq 12's γ_lm then come from level 1 alone, weighted f.
+     * nm_sh_han07 (NM_PUB_L0_BLEND): level 0's γ_lm = Y_lm(n) trilinear as every level's. */
+#ifdef NM_PUB_L0_BLEND
+    int at0 = 0;
+#else
     int at0 = info.w && l0 == info.x;
+#endif
     int n0c = min(ntap, NM_MAX_L0);
     float4 n0s[NM_MAX_L0];
     for (int k = 0; k < n0c; ++k) n0s[k] = (float4)(0.0f);
@@ -314,7 +328,7 @@
         float3 es = (float3)(0.0f);
         for (int j = 0; j < nlob; ++j)
             es += lp[j].x * nm_sh8_factor(m, ks, model, ax[j].xyz, o, lp[j].w)
-                  * fmax(nm_sh8_specular(nm_env_sh8, bp + 4, o, ax[j].xyz,
+                  * fmax(nm_sh8_specular(nm_env_sh8, bp + NM_RHO_SLOT, o, ax[j].xyz,
                                          j < n0l ? 1e30f : nm_kappa_of(lrl[j])), 0.0f);
         acc += env_scale * es;
     }
@@ -373,7 +387,7 @@
                 float3 ol = nm_lift(o, nbar, 0.01f);
                 float3 h = normalize(o + i);          /* o: lifted in the geometric frame */
                 nm_sh_eval(to_local(h, T, B, N), lsh, yb);
-                float reff = fmax(nm_sh_dot(g, yb, bp + 4, lsh), 0.0f);      /* eq 12 */
+                float reff = fmax(nm_sh_dot(g, yb, bp + NM_RHO_SLOT, lsh), 0.0f);      /* eq 12 */
                 float ci = dot(nbar, i);
                 if (ci > 0.0f) {
                     if (model == NM_BLINN) {
