@@ -201,19 +201,20 @@ GREEN06_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
 #: give back — all of them make it `vmf` (a test checks). Both read the normal-map stage's
 #: pyramids as configured (Han07's own: normalmap.bilinear_samples: 1, the texels' normals).
 HAN07_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
-    # Algorithm 2: the trilinear MIP lookup of α_j, α_j·r_j (vmf: render.normalmap_footprint,
-    # the pixel's box over the level's texels with every texel's lobes kept apart)
-    "box": (("NM_PUB_TRILINEAR", 1),),
-    # eq 24 at level 0 too: the texels' delta lobes blended (vmf: bilinear-normal taps, as the
-    # map is read at full resolution)
-    "level0": (("NM_PUB_L0_BLEND", 1),),
-    # §8 eq 25: the environment's diffuse part through its SH, l ≤ 2, per lobe (vmf: the SG
-    # light sum at the heaviest lobes' axes and the rest of the mean normal, SSDF-shadowed)
-    "env_diffuse": (("NM_PUB_SH_DIFFUSE", 1),),
+    # (the environment's switches first: its SH at l* = 8 swamps every other difference)
     # §8 eq 26: the environment's specular part through the reparameterised lighting's SH,
     # l* = 8, on a 16 × 16 table of views (vmf: each lobe warped to three sub-lobes through the
     # Γ_L pyramid with the lobe-mean Fresnel and masking, the point set shaded exactly)
     "env_specular": (("NM_PUB_SH_SPECULAR", 1),),
+    # §8 eq 25: the environment's diffuse part through its SH, l ≤ 2, per lobe (vmf: the SG
+    # light sum at the heaviest lobes' axes and the rest of the mean normal, SSDF-shadowed)
+    "env_diffuse": (("NM_PUB_SH_DIFFUSE", 1),),
+    # eq 24 at level 0 too: the texels' delta lobes blended (vmf: bilinear-normal taps, as the
+    # map is read at full resolution)
+    "level0": (("NM_PUB_L0_BLEND", 1),),
+    # Algorithm 2: the trilinear MIP lookup of α_j, α_j·r_j (vmf: render.normalmap_footprint,
+    # the pixel's box over the level's texels with every texel's lobes kept apart)
+    "box": (("NM_PUB_TRILINEAR", 1),),
 }
 
 #: What makes `nm_sh_han07` Han07 §5 as published, one entry per sgpipe improvement that

@@ -194,11 +194,11 @@ class RenderSection:
         "lights, with the SSDF horizon).", default_factory=list)
     vmf_han07_adds: list[Han07Improvement] = doc(
         "vmf_han07: sgpipe improvements to give back to Han07 §7–8 as published (all of them: "
-        "`vmf`; docs/HAN07.md): box (render.normalmap_footprint instead of the trilinear "
-        "lookup), level0 (bilinear-normal taps at level 0 instead of eq 24's blend of delta "
-        "lobes), env_diffuse (the SG light sum instead of eq 25's SH), env_specular (warped "
-        "lobes through the Γ_L pyramid and the point set exactly, instead of eq 26's SH at "
-        "l* = 8).", default_factory=list)
+        "`vmf`; docs/HAN07.md): env_specular (warped lobes through the Γ_L pyramid and the "
+        "point set exactly, instead of eq 26's SH at l* = 8), env_diffuse (the SG light sum "
+        "instead of eq 25's SH), level0 (bilinear-normal taps at level 0 instead of eq 24's "
+        "blend of delta lobes), box (render.normalmap_footprint instead of the trilinear "
+        "lookup).", default_factory=list)
     nm_sh_han07_adds: list[Han07ShImprovement] = doc(
         "nm_sh_han07: sgpipe improvements to give back to Han07 §5 as published (all of them: "
         "`nm_sh`; docs/HAN07.md): box (render.normalmap_footprint instead of the trilinear "
