@@ -6,10 +6,11 @@ speed targets of issue 17) through the real stages, with the transport as Green0
 
 Fig 5: `green06_lobes` (Gaussians vs nonlinear Haar vs SH on three transport functions).
 The scenes: configs/transport_floor.yaml (a glossy GGX ball on a Lambert floor), run by
-`sgpipe.stages` fit → precompute → render under the studio and sky maps with `transport`
-(1 Gaussian), `sg`, `gmm` without visibility (Fig 6's prefiltering without visibility) and the
-reference; `transport` with 2 Gaussians (Fig 7); the same scene with a 10 242-vertex ball at 512²
-for the render speed. Writes PNGs and `<out>/green06.md` (copied to docs/results/green06.md by
+`sgpipe.stages` fit → precompute → render under the studio and sky maps with `transport_green06`
+(the published render, 1 Gaussian), `sg`, `gmm` without visibility (Fig 6's prefiltering without
+visibility) and the reference; with 2 Gaussians (Fig 7); the same scene with a 10 242-vertex ball
+at 512² for the render speed of `transport`. Fig 6 again on the corpus's glossy bowl, where the
+rim occludes the inner wall's reflections, with sgpipe's `transport` beside the published one. Writes PNGs and `<out>/green06.md` (copied to docs/results/green06.md by
 --results). A stage that fails is reported as missing with its error, never faked.
 """
 
@@ -78,10 +79,11 @@ def _scores(img, ref, masks, exposure) -> dict:
 
 
 def run_scene(out: Path, env: str, *, gaussians: int, methods, size: int, spp: int,
-              extra: list[str] | None = None) -> dict:
-    """One render of the floor scene: images, timings and the transport report."""
+              extra: list[str] | None = None, sampling: str = "cube") -> dict:
+    """One render of the floor scene (`extra` overrides: another scene): images, timings and
+    the transport report."""
     ov = [f"envmap.environment={ENVS[env]}", f"transport.gaussians={gaussians}",
-          "transport.sampling=cube",
+          f"transport.sampling={sampling}",
           f"render.methods={json.dumps(list(methods))}", f"render.spp={spp}",
           f"render.camera.width={size}", f"render.camera.height={size}",
           "render.baseline_shadows=false", "workers=0", *(extra or [])]
@@ -149,6 +151,43 @@ def _fit_sample(n_vertices: int) -> dict:
 FIG5_GAUSSIANS = 10
 
 
+#: Fig 6 on a concave object: the fidelity corpus's thick bowl (radius 1, rim at y = 1), a sharp
+#: GGX lobe (α 0.08) whose reflections of the lamps its rim cuts off
+BOWL_ALPHA = 0.08
+BOWL_CAMERA = "{eye: [0, 2.76, 2.76], target: [0, 0.45, 0], fov_deg: 36}"
+
+
+def bowl_fig6(out: Path, env: str, *, size: int, spp: int) -> dict:
+    """Fig 6 where glossy self-occlusion exists: the bowl under `env` fitted as Green06 publishes
+    it (transport.sampling: cube) and rendered by `transport_green06` beside `gmm` without
+    visibility (the prefiltering of Fig 6 b) and the reference; then sgpipe's fit (sampling:
+    lobe) rendered by `transport` and `sg`, scored against the same reference."""
+    from sgpipe.experiments.corpus.assets import bowl_mesh
+    from sgpipe.io.mesh import write_obj
+    mesh = out / "bowl.obj"
+    if not mesh.is_file():
+        out.mkdir(parents=True, exist_ok=True)
+        v, f, n = bowl_mesh()
+        write_obj(mesh, v, f, normals=n)
+    extra = [f"scene.objects=[{{name: bowl, mesh: {mesh}, material: ball}}]",
+             f"fit.materials.0.params.alpha={BOWL_ALPHA}", f"render.camera={BOWL_CAMERA}"]
+    extra[-1] = extra[-1][:-1] + f", width: {size}, height: {size}}}"
+    res = run_scene(out / f"{env}_green06", env, gaussians=1, size=size, spp=spp, extra=extra,
+                    methods=["transport_green06", "gmm", "reference"])
+    if "error" in res:
+        return res
+    ours = run_scene(out / f"{env}_sgpipe", env, gaussians=1, size=size, spp=spp, extra=extra,
+                     methods=["transport", "sg"], sampling="lobe")
+    if "error" in ours:
+        return ours
+    res.update({m: ours[m] for m in ("transport", "sg")})
+    res["timings"].update({k: v for k, v in ours["timings"].items()
+                           if k.startswith(("transport_", "sg_"))})
+    for m in ("transport_green06", "gmm", "transport", "sg"):
+        res[f"{m}_scores"] = _scores(res[m], res["reference"], res, EXPOSURE[env])
+    return res
+
+
 def main(argv: list[str] | None = None) -> int:
     from sgpipe.experiments import green06_report as report
     from sgpipe.experiments.green06_lobes import CASES, case_errors
@@ -175,7 +214,8 @@ def main(argv: list[str] | None = None) -> int:
                     "material: ball}]", "transport.cube_resolution=8",
                     "transport.sphere_subdivisions=2", "visibility.sphere_subdivisions=2"]
                    if q else [])
-    methods = ["transport", "reference"] if q else ["transport", "sg", "gmm", "reference"]
+    methods = (["transport_green06", "reference"] if q else
+               ["transport_green06", "sg", "gmm", "reference"])
     scenes = {}
     for env in envs:
         scenes[env] = run_scene(out / "floor_k1", env, gaussians=1, methods=methods, size=size,
@@ -187,10 +227,11 @@ def main(argv: list[str] | None = None) -> int:
                                                      EXPOSURE[env])
         _log(f"floor {env} done ({time.perf_counter() - t_start:.0f} s)")
     k2 = ({"error": "not run with --quick"} if q else
-          run_scene(out / "floor_k2", "studio", gaussians=2, methods=["transport"], size=size,
+          run_scene(out / "floor_k2", "studio", gaussians=2, methods=["transport_green06"], size=size,
                     spp=spp, extra=scene_extra))
     if "error" not in k2 and "error" not in scenes["studio"]:
-        k2["transport_scores"] = _scores(k2["transport"], scenes["studio"]["reference"],
+        k2["transport_green06_scores"] = _scores(k2["transport_green06"],
+                                                 scenes["studio"]["reference"],
                                          scenes["studio"], EXPOSURE["studio"])
     _log(f"2 Gaussians done ({time.perf_counter() - t_start:.0f} s)")
     # render speed at 512² and the §6.1 fit timing / storage ------------------------------------
@@ -203,9 +244,12 @@ def main(argv: list[str] | None = None) -> int:
                                  "render.timing_repeats=5"])
         fit = _fit_sample(int(os.environ.get("SGPIPE_GREEN06_FIT_VERTICES", "256")))
         _log(f"speed and fit timing done ({time.perf_counter() - t_start:.0f} s)")
+    bowls = {} if q else {env: bowl_fig6(out / "bowl", env, size=size, spp=spp) for env in envs}
+    _log(f"bowl (Fig 6, concave) done ({time.perf_counter() - t_start:.0f} s)")
     report.fig6(out / "fig6_visibility.png", scenes, EXPOSURE)
+    report.fig6_bowl(out / "fig6_bowl.png", bowls, EXPOSURE)
     report.fig7(out / "fig7_gaussians.png", scenes.get("studio", {}), k2, EXPOSURE["studio"])
-    md = report.markdown(fig5, scenes, k2, speed, fit, quick=q, size=size, spp=spp,
+    md = report.markdown(fig5, scenes, k2, speed, fit, bowls, quick=q, size=size, spp=spp,
                          seconds=time.perf_counter() - t_start,
                          command="python -m sgpipe.experiments.green06 " + " ".join(
                              sys.argv[1:] if argv is None else argv))
