@@ -10,8 +10,9 @@ The scenes: configs/transport_floor.yaml (a glossy GGX ball on a Lambert floor),
 (the published render, 1 Gaussian), `sg`, `gmm` without visibility (Fig 6's prefiltering without
 visibility) and the reference; with 2 Gaussians (Fig 7); the same scene with a 10 242-vertex ball
 at 512² for the render speed of `transport`. Fig 6 again on the corpus's glossy bowl, where the
-rim occludes the inner wall's reflections, with sgpipe's `transport` beside the published one. Writes PNGs and `<out>/green06.md` (copied to docs/results/green06.md by
---results). A stage that fails is reported as missing with its error, never faked.
+rim occludes the inner wall's reflections, with sgpipe's `transport` beside the published one.
+Writes PNGs and `<out>/green06.md` (copied to docs/results/green06.md by --results). A stage
+that fails is reported as missing with its error, never faked.
 """
 
 from __future__ import annotations
@@ -227,8 +228,8 @@ def main(argv: list[str] | None = None) -> int:
                                                      EXPOSURE[env])
         _log(f"floor {env} done ({time.perf_counter() - t_start:.0f} s)")
     k2 = ({"error": "not run with --quick"} if q else
-          run_scene(out / "floor_k2", "studio", gaussians=2, methods=["transport_green06"], size=size,
-                    spp=spp, extra=scene_extra))
+          run_scene(out / "floor_k2", "studio", gaussians=2, methods=["transport_green06"],
+                    size=size, spp=spp, extra=scene_extra))
     if "error" not in k2 and "error" not in scenes["studio"]:
         k2["transport_green06_scores"] = _scores(k2["transport_green06"],
                                                  scenes["studio"]["reference"],

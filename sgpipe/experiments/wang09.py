@@ -1,7 +1,7 @@
 """Wang09's experiment (Fig 7, Fig 9 and Table 1's columns on the teapot scene:
 sgpipe.experiments.wang09_figures; Fig 8 on a ball and floor: wang09_fig8; the isotropic warp
-against sgpipe's anisotropic one: wang09_warp) and its ablation ladder on the fidelity corpus: `sg_wang09`
-(the paper as published), then each sgpipe improvement given back one at a time
+against sgpipe's anisotropic one: wang09_warp) and its ablation ladder on the fidelity corpus:
+`sg_wang09` (the paper as published), then each sgpipe improvement given back one at a time
 (render.sg_wang09_adds, in sgpipe.render.methods.WANG09_SWITCHES order) up to `sg`
 (sgpipe.experiments.ladder).
 

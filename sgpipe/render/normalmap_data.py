@@ -4,7 +4,7 @@ the normal-map kernels `vmf`, `normals_mip`, `toksvig`, `engine_bake`, `nm_sh`
 
     data = NormalMapData.pack([per_object_pyramid_or_None, ...], params=[s or α, ...],
                               models=[...])
-    buffers = data.device_buffers(ctx)    # nm_data, nm_levels, nm_info, nm_brdf, nm_env_sh, nm_env_sh8
+    buffers = data.device_buffers(ctx)    # nm_data, nm_levels, nm_info, nm_brdf, nm_env_sh(8)
 
 Layout (float4 `nm_data`): per map and level ℓ (side m) first the lobes, texel-major in image
 rows (row 0 = v = 1) then lobe j: (α_j, α_j·r_j) — eq 24's linear textures, interpolated before

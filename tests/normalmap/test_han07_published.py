@@ -97,7 +97,10 @@ def _lprime_at(table, o):
     tj, j0 = fj - j0f, int(j0f) % nv
     j1 = (j0 + 1) % nv
     k = han07_env.NCOEF
-    at = lambda i, j: table[k * (1 + i * nv + j):k * (2 + i * nv + j), :3].astype(float)  # noqa: E731
+
+    def at(i, j):
+        return table[k * (1 + i * nv + j):k * (2 + i * nv + j), :3].astype(float)
+
     return ((1 - ti) * (1 - tj) * at(i0, j0) + (1 - ti) * tj * at(i0, j1)
             + ti * (1 - tj) * at(i1, j0) + ti * tj * at(i1, j1))
 
