@@ -8,7 +8,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 
 from sgpipe.core.sh import sh_eval
 from sgpipe.render import han07_env
