@@ -41,6 +41,7 @@ FOOT_SLOT = 14       # footprint filter (nm_shade.h NM_FOOT_SLOT): 0 trilinear, 
 FOOTPRINTS = {"trilinear": 0, "box": 1}
 SH_LMAX = 16         # l* ≤ 16 (nm_shade.h NM_MAX_SH4 = 73 float4)
 SH_METHODS = {"nm_sh", "nm_sh_han07"}      # the methods that read the SH pyramid
+VMF_METHODS = {"vmf", "vmf_han07"}         # ... and the vMF pyramid
 
 
 @dataclass
@@ -196,7 +197,8 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
             raise BadInput(f"object {o.name!r} has no normal-map pyramid in {index.name}",
                            file=index, key=f"scene.objects.{k}.normal_map")
         if name not in cache:
-            cache[name] = NormalMapPyramid.load(nm_dir, name, need_vmf="vmf" in methods,
+            cache[name] = NormalMapPyramid.load(nm_dir, name,
+                                                need_vmf=bool(methods & VMF_METHODS),
                                                 need_sh=bool(methods & SH_METHODS))
         pyramids.append(cache[name])
         if "nm_sh_han07" in methods:
@@ -207,7 +209,7 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
                                f"object {o.name!r} ({lobes[k][0]} {lobes[k][1]:g}); its pyramid "
                                f"stores {stored}", key="normalmap.sh_order")
     taps = int(getattr(cfg.render, "normalmap_max_taps", 1))
-    # ρ̂_l, l ≤ 8, of every object: nm_sh reads l ≤ its SH order, vmf_han07 all (eq 26)
+    # ρ̂_l, l ≤ SH_LMAX, of every object: nm_sh reads l ≤ its SH order, vmf_han07 l ≤ 8 (eq 26)
     rho = [specular_sh_coeffs(model, param, SH_LMAX) for model, param in lobes]
     data = NormalMapData.pack(pyramids, [prm for _, prm in lobes], taps,
                               [BRDF_MODELS[mdl] for mdl, _ in lobes], rho,

@@ -83,6 +83,24 @@ def test_nm_sh_han07_refuses_a_pyramid_below_sqrt_4s(rendered, tmp_path):
     assert e.value.key == "normalmap.sh_order"
 
 
+def test_vmf_han07_without_a_vmf_pyramid_is_refused(tmp_path):
+    """normalmap.methods without `vmf`: vmf_han07 reads the vMF pyramid as vmf does, so the
+    render stage names the missing file instead of shading zero lobes."""
+    _config(tmp_path)
+    conf = load_config(tmp_path / "c.yaml", ["normalmap.methods=[sh, baselines]",
+                                             "render.methods=[vmf_han07]",
+                                             "render.compare_to=null"])
+    from sgpipe.render.normalmap_data import load_normalmap_data
+    from sgpipe.render.setup import object_material_specs
+    from sgpipe.stages import fit, normalmap
+    out = tmp_path / "out"
+    fit.run(conf, out)
+    normalmap.run(conf, out)
+    with pytest.raises(BadInput, match="file not found") as e:
+        load_normalmap_data(conf, out, object_material_specs(conf))
+    assert Path(e.value.file).name == "vmf.npz"
+
+
 def test_large_frame_renders(tmp_path):
     """A 256² frame of every normal-map method: with the runtime's own work-group size PoCL
     picked groups whose per-work-item lobe arrays overflowed its thread stack (a segfault of
