@@ -230,6 +230,12 @@ HAN07_SH_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
     "bands": (("NM_PUB_SH_LSTAR", 1),),
 }
 
+
+def every_define(switches: dict) -> tuple[tuple[str, object], ...]:
+    """A switch table's defines, all of them: what its published variant compiles with."""
+    return tuple(d for ds in switches.values() for d in ds)
+
+
 #: Each published variant's switch table, by method name.
 PUBLISHED_SWITCHES = {"sg_wang09": WANG09_SWITCHES, "gmm_toral19": TORAL19_SWITCHES,
                       "transport_green06": GREEN06_SWITCHES, "vmf_han07": HAN07_SWITCHES,
@@ -247,7 +253,7 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sg_wang09", "Wang09 as published (isotropic warp, C* ⊗ ρ*_s, published f_h)",
            "sg_shade", (PIXEL_PARAMS, SG_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",),
            needs_ndf_table=True,    # read only with exact_brdf given back
-           fixed_defines=tuple(d for ds in WANG09_SWITCHES.values() for d in ds)),
+           fixed_defines=every_define(WANG09_SWITCHES)),
     Method("gmm", "Töral19 per-view vMF mixtures with MIP lookups", "gmm_shade",
            (PIXEL_PARAMS, MIP_PARAMS, GMM_CHAIN_PARAMS, "const int interp", TAIL_PARAMS),
            defines=("MAX_GMM_LOBES", "GMM_TAPS", "GMM_ROTATE"), baseline_shadows=True,
@@ -258,7 +264,7 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            (PIXEL_PARAMS, MIP_PARAMS, GMM_CHAIN_PARAMS, "const int interp", TAIL_PARAMS),
            defines=("MAX_GMM_LOBES", "GMM_TAPS", "GMM_ROTATE"), baseline_shadows=True,
            needs_view_gmm=True,
-           fixed_defines=tuple(d for ds in TORAL19_SWITCHES.values() for d in ds)),
+           fixed_defines=every_define(TORAL19_SWITCHES)),
     Method("fis", "Colbert–Křivánek filtered importance sampling", "fis_shade",
            (PIXEL_PARAMS, MIP_PARAMS, "const int nsamp, const uint seed", TAIL_PARAMS),
            defines=("MAX_NDF_LOBES",), baseline_shadows=True, needs_ndf_table=True),
@@ -270,7 +276,7 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            "whole environment and every light)", "transport_shade",
            (PIXEL_PARAMS, TRANSPORT_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",),
            needs_transport=True, needs_ndf_table=True,
-           fixed_defines=tuple(d for ds in GREEN06_SWITCHES.values() for d in ds)),
+           fixed_defines=every_define(GREEN06_SWITCHES)),
     Method("vmf", "Han07 vMF-filtered normal map (Algorithm 2, eq 20–21 lights, eq 24–26 "
            "environment)", "vmf_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS),
            needs_normalmap=True),
@@ -278,7 +284,7 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("vmf_han07", "Han07 as published (trilinear eq 24 lookup, eq 20–21 lights, §8 SH "
            "environment at l* = 8)", "vmf_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS),
            needs_normalmap=True,
-           fixed_defines=tuple(d for ds in HAN07_SWITCHES.values() for d in ds)),
+           fixed_defines=every_define(HAN07_SWITCHES)),
     Method("normals_mip", "normalised MIP of the normal map (Han07 baseline)", "nmip_shade",
            (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
     Method("toksvig", "Toksvig-scaled exponent (roughness) from the MIP normal length",
@@ -291,7 +297,7 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     # Han07 §5 as published: nm_sh's kernel with every switch of HAN07_SH_SWITCHES
     Method("nm_sh_han07", "Han07 §5 as published (trilinear γ_lm, eq 12 at l* = ⌈√(4s)⌉)",
            "nmsh_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True,
-           fixed_defines=tuple(d for ds in HAN07_SH_SWITCHES.values() for d in ds)),
+           fixed_defines=every_define(HAN07_SH_SWITCHES)),
 )}
 
 #: `render.methods` choices: the OpenCL methods and the Monte Carlo ground truth.

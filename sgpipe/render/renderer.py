@@ -239,10 +239,9 @@ class Renderer:
 
     def _given_back(self, method: str) -> set[str]:
         """The defines of a published variant's switches that the config gives back."""
-        adds = {"sg_wang09": self.sg_wang09_adds, "gmm_toral19": self.gmm_toral19_adds,
-                "transport_green06": self.transport_green06_adds,
-                "vmf_han07": self.vmf_han07_adds,
-                "nm_sh_han07": self.nm_sh_han07_adds}.get(method, ())
+        if method not in PUBLISHED_SWITCHES:
+            return set()
+        adds = getattr(self, f"{method}_adds")        # the constructor's <method>_adds
         return {k for name in adds for k, _ in PUBLISHED_SWITCHES[method][name]}
 
     def method_materials(self, method: str) -> MaterialTable:

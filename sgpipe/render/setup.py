@@ -12,7 +12,7 @@ from sgpipe.errors import BadInput
 from sgpipe.io import read_data_image, read_exr
 from sgpipe.render.envdata import EnvData
 from sgpipe.render.materials import Material, pack_materials
-from sgpipe.render.methods import Method
+from sgpipe.render.methods import PUBLISHED_SWITCHES, Method
 from sgpipe.render.renderer import Light, ObjectShading, Renderer, Textures
 from sgpipe.render.scene import load_trace_objects, load_vis_objects
 from sgpipe.scene.gbuffer import TraceObject
@@ -123,11 +123,8 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
                         textures=textures, lights=lights_of(rs), env_scale=environment_scale(cfg),
                         fh_mode=rs.fh, gmm_taps=rs.gmm_taps,
                         gmm_carry=rs.gmm_carry, gmm_points=rs.gmm_points,
-                        sg_wang09_adds=tuple(rs.sg_wang09_adds),
-                        gmm_toral19_adds=tuple(rs.gmm_toral19_adds),
-                        transport_green06_adds=tuple(rs.transport_green06_adds),
-                        vmf_han07_adds=tuple(rs.vmf_han07_adds),
-                        nm_sh_han07_adds=tuple(rs.nm_sh_han07_adds),
+                        **{f"{m}_adds": tuple(getattr(rs, f"{m}_adds"))
+                           for m in PUBLISHED_SWITCHES},
                         materials_toral19=pack_materials(
                             [replace(m, gmm=m.gmm_toral19) for m in mats])
                         if published_gmm else None)
