@@ -21,8 +21,7 @@ SIZE, SPP, EXPOSURE = 128, 256, -1.0
 
 def config(floor_obj: Path, subdivisions: int, *, size: int = SIZE, spp: int = SPP):
     """The ball-on-floor scene (validated root Config) at one density."""
-    from sgpipe.config.root import Config
-    from sgpipe.config.schema import Context, build
+    from sgpipe.experiments.corpus.measure import load_scene
     raw = {
         "name": "wang09-fig8", "seed": 0, "workers": 0,
         "scene": {"objects": [
@@ -40,7 +39,7 @@ def config(floor_obj: Path, subdivisions: int, *, size: int = SIZE, spp: int = S
                    "methods": ["sg", "reference"], "spp": spp, "supersample": 3,
                    "preview_exposure": EXPOSURE, "timing_repeats": 1},
     }
-    return build(Config, raw, (), Context(file=None, lines={}))
+    return load_scene(raw)
 
 
 def _vertex_frame(bundle, eye: np.ndarray):
@@ -49,7 +48,7 @@ def _vertex_frame(bundle, eye: np.ndarray):
     SSDF is stored) and view, its SSDF taken whole (a corner of one of its triangles with
     barycentrics at that corner)."""
     from sgpipe.render.renderer import Frame
-    from sgpipe.scene.gbuffer import _frames     # the G-buffer's tangent rule (CONVENTIONS)
+    from sgpipe.scene.gbuffer import tangent_frames    # the G-buffer's rule (CONVENTIONS)
     pos, nrm, hint, obj, tri, bary, first = [], [], [], [], [], [], []
     for k, (o, s) in enumerate(zip(bundle.objects, bundle.renderer.objects)):
         first.append(sum(len(p) for p in pos))
@@ -77,7 +76,7 @@ def _vertex_frame(bundle, eye: np.ndarray):
     p, n, h = np.concatenate(pos), np.concatenate(nrm), np.concatenate(hint)
     # the SSDF is stored in the frame the G-buffer gives the surface: the same tangent rule
     ok = np.isfinite(h).all(1)
-    t, _ = _frames(n, np.where(ok[:, None], h, 0.0), ok)
+    t, _ = tangent_frames(n, np.where(ok[:, None], h, 0.0), ok)
     view = eye - p
     view /= np.linalg.norm(view, axis=1)[:, None]
     f4 = lambda a: np.concatenate([a, np.zeros((len(a), 1))], 1).astype(np.float32)  # noqa: E731

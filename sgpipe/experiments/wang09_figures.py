@@ -26,8 +26,7 @@ POINT_LIGHTS = [{"type": "point", "position": [-2.0, 3.2, 1.6], "intensity": [8,
 
 def config(*, lights: bool, seed: int = 0, workers: int = 0):
     """The teapot scene as a validated root Config."""
-    from sgpipe.config.root import Config
-    from sgpipe.config.schema import Context, build
+    from sgpipe.experiments.corpus.measure import load_scene
     raw = {
         "name": "wang09-teapot", "seed": seed, "workers": workers,
         "scene": {"objects": [
@@ -47,7 +46,7 @@ def config(*, lights: bool, seed: int = 0, workers: int = 0):
                    "methods": ["sg", "sg_wang09"], "timing_repeats": 5,
                    "lights": POINT_LIGHTS if lights else []},
     }
-    return build(Config, raw, (), Context(file=None, lines={}))
+    return load_scene(raw)
 
 
 def _bytes(folder: Path, pattern: str) -> int:

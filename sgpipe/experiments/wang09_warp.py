@@ -22,8 +22,7 @@ VARIANTS = (("isotropic (published)", []), ("anisotropic, 3 sub-lobes", ["warp3"
 
 def config(adds, *, size: int = SIZE, spp: int = SPP):
     """A Beckmann α 0.15 sphere (specular only) under the studio map, `sg_wang09` with `adds`."""
-    from sgpipe.config.root import Config
-    from sgpipe.config.schema import Context, build
+    from sgpipe.experiments.corpus.measure import load_scene
     raw = {
         "name": "wang09-warp", "seed": 0, "workers": 0,
         "scene": {"objects": [{"name": "ball", "sphere_radius": 1.0, "material": "ball"}]},
@@ -38,7 +37,7 @@ def config(adds, *, size: int = SIZE, spp: int = SPP):
                    "spp": spp, "supersample": 3, "preview_exposure": EXPOSURE,
                    "timing_repeats": 1},
     }
-    return build(Config, raw, (), Context(file=None, lines={}))
+    return load_scene(raw)
 
 
 def measure(out: Path, *, size: int = SIZE, spp: int = SPP, log=print) -> dict:

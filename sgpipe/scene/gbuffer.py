@@ -133,7 +133,7 @@ def _cross(a, b):
     return out
 
 
-def _frames(n, hint, has_hint):
+def tangent_frames(n, hint, has_hint):
     """CONVENTIONS frames: t = hint Gram–Schmidt-orthogonalised against n where usable, else the
     azimuthal rule of core.sphere.tangent_frame; b = n × t."""
     t = hint - np.einsum("ij,ij->i", hint, n)[:, None] * n
@@ -285,7 +285,7 @@ class Tracer:
         bit = np.zeros((n, 3))
         if hit.any():
             hint = np.where(has_hint[:, None], tan_hint, 0.0)[hit]
-            tan[hit], bit[hit] = _frames(nrm[hit], hint, has_hint[hit])
+            tan[hit], bit[hit] = tangent_frames(nrm[hit], hint, has_hint[hit])
         f32 = lambda a, *k: a.reshape(shape + tuple(k)).astype(np.float32)
         return GBuffer(hit=hit.reshape(shape), t=f32(t), position=f32(pos, 3),
                        normal=f32(nrm, 3), geo_normal=f32(ngeo, 3), tangent=f32(tan, 3),
