@@ -155,7 +155,8 @@ FIG5_GAUSSIANS = 10
 #: Fig 6 on a concave object: the fidelity corpus's thick bowl (radius 1, rim at y = 1), a sharp
 #: GGX lobe (α 0.08) whose reflections of the lamps its rim cuts off
 BOWL_ALPHA = 0.08
-BOWL_CAMERA = "{eye: [0, 2.76, 2.76], target: [0, 0.45, 0], fov_deg: 36}"
+BOWL_CAMERA = ("render.camera.eye=[0, 2.76, 2.76]", "render.camera.target=[0, 0.45, 0]",
+               "render.camera.fov_deg=36")
 
 
 def bowl_fig6(out: Path, env: str, *, size: int, spp: int) -> dict:
@@ -171,8 +172,7 @@ def bowl_fig6(out: Path, env: str, *, size: int, spp: int) -> dict:
         v, f, n = bowl_mesh()
         write_obj(mesh, v, f, normals=n)
     extra = [f"scene.objects=[{{name: bowl, mesh: {mesh}, material: ball}}]",
-             f"fit.materials.0.params.alpha={BOWL_ALPHA}", f"render.camera={BOWL_CAMERA}"]
-    extra[-1] = extra[-1][:-1] + f", width: {size}, height: {size}}}"
+             f"fit.materials.0.params.alpha={BOWL_ALPHA}", *BOWL_CAMERA]
     res = run_scene(out / f"{env}_green06", env, gaussians=1, size=size, spp=spp, extra=extra,
                     methods=["transport_green06", "gmm", "reference"])
     if "error" in res:
