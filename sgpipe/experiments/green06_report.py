@@ -73,46 +73,41 @@ def _show(ax, img, exposure, title):
     ax.axis("off")
 
 
-def fig6(path: Path, scenes: dict, exposure: dict) -> None:
-    """Per environment: reference | transport (visibility) | gmm (no visibility) | sg."""
+def _method_rows(path: Path, scenes: dict, exposure: dict, methods, caption) -> None:
+    """Per environment of `scenes`: reference | each (method, label) of `methods` captioned
+    `caption(scores)` (a method without scores: an empty panel)."""
     envs = [e for e, s in scenes.items() if "error" not in s]
     if not envs:
         return
-    fig, ax = plt.subplots(len(envs), 4, figsize=(12, 3.1 * len(envs)))
+    fig, ax = plt.subplots(len(envs), 1 + len(methods),
+                           figsize=(3 * (1 + len(methods)), 3.1 * len(envs)))
     ax = np.atleast_2d(ax)
     for r, e in enumerate(envs):
         s = scenes[e]
         _show(ax[r, 0], s["reference"], exposure[e], f"{e}: reference")
-        for k, (m, lab) in enumerate((("transport_green06", "Green06 (visibility)"),
-                                      ("gmm", "prefiltered, no visibility (gmm)"),
-                                      ("sg", "sg (SSDF visibility)")), start=1):
+        for k, (m, lab) in enumerate(methods, start=1):
             if f"{m}_scores" not in s:
                 ax[r, k].axis("off")
                 continue
-            sc = s[f"{m}_scores"]
-            _show(ax[r, k], s[m], exposure[e],
-                  f"{lab}\nball {sc['ball_psnr']:.2f} dB, surfaces {sc['surface_psnr']:.2f} dB")
+            _show(ax[r, k], s[m], exposure[e], f"{lab}\n{caption(s[f'{m}_scores'])}")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
+
+
+def fig6(path: Path, scenes: dict, exposure: dict) -> None:
+    """The floor scene per environment: reference | Green06 (visibility) | gmm (no
+    visibility) | sg."""
+    _method_rows(path, scenes, exposure,
+                 (("transport_green06", "Green06 (visibility)"),
+                  ("gmm", "prefiltered, no visibility (gmm)"), ("sg", "sg (SSDF visibility)")),
+                 lambda sc: f"ball {sc['ball_psnr']:.2f} dB, surfaces {sc['surface_psnr']:.2f} dB")
 
 
 def fig6_bowl(path: Path, bowls: dict, exposure: dict) -> None:
-    """Per environment: reference | each of BOWL_METHODS, on the glossy bowl."""
-    envs = [e for e, s in bowls.items() if "error" not in s]
-    if not envs:
-        return
-    fig, ax = plt.subplots(len(envs), 1 + len(BOWL_METHODS), figsize=(15, 3.1 * len(envs)))
-    ax = np.atleast_2d(ax)
-    for r, e in enumerate(envs):
-        s = bowls[e]
-        _show(ax[r, 0], s["reference"], exposure[e], f"{e}: reference")
-        for k, (m, lab) in enumerate(BOWL_METHODS, start=1):
-            sc = s[f"{m}_scores"]
-            _show(ax[r, k], s[m], exposure[e], f"{lab}\nbowl {sc['ball_psnr']:.2f} dB")
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    """The glossy bowl per environment: reference | each of BOWL_METHODS."""
+    _method_rows(path, bowls, exposure, BOWL_METHODS,
+                 lambda sc: f"bowl {sc['ball_psnr']:.2f} dB")
 
 
 def fig7(path: Path, k1: dict, k2: dict, exposure: float) -> None:
