@@ -48,12 +48,14 @@ def material(model: str, param: float, kd=0.0, ks=1.0, fresnel="none"):
 
 
 def renderer(model, param, pyr, *, kd=0.0, ks=1.0, lights=(), env=None, taps=1, rho=None,
-             env_sh=None, env_specular=False, fresnel="none"):
-    """A Renderer with one object of `model` mapped by `pyr` (NormalMapPyramid or None)."""
+             env_sh=None, env_specular=False, fresnel="none", footprint="trilinear", **adds):
+    """A Renderer with one object of `model` mapped by `pyr` (NormalMapPyramid or None);
+    `adds`: the published variants' `<method>_adds`."""
     _, m = material(model, param, kd, ks, fresnel)
     r = Renderer(env=env or EnvData.constant(0.0), materials=pack_materials([m]),
-                 objects=[ObjectShading(0, normal_map=-1)], lights=list(lights))
-    data = NormalMapData.pack([pyr], [param], taps, [BRDF_MODELS[model]], [rho])
+                 objects=[ObjectShading(0, normal_map=-1)], lights=list(lights), **adds)
+    data = NormalMapData.pack([pyr], [param], taps, [BRDF_MODELS[model]], [rho],
+                              footprint=footprint)
     attach_normalmaps(r, data.with_environment(env_sh, env_specular))
     return r
 

@@ -13,11 +13,10 @@ from sgpipe.core.sh import sh_eval
 from sgpipe.render import han07_env
 from sgpipe.render.envdata import EnvData
 from sgpipe.render.methods import HAN07_SWITCHES
-from sgpipe.render.normalmap_data import (BRDF_MODELS, NormalMapData, NormalMapPyramid,
-                                          attach_normalmaps, specular_sh_coeffs)
+from sgpipe.render.normalmap_data import NormalMapPyramid, specular_sh_coeffs
 from sgpipe.render.records import KernelFlag
 from tests.normalmap.quadrature import frame as axis_frame
-from tests.normalmap.render_mirror import (flat_frame, material, rbar_of_kappa,
+from tests.normalmap.render_mirror import (flat_frame, rbar_of_kappa, renderer,
                                            single_lobe_pyramid, unit)
 
 C = 0.7
@@ -64,17 +63,10 @@ def test_eq26_with_the_reparameterised_lighting_equals_the_half_vector_integral(
 
 def _renderer(model, param, pyr, *, kd=0.0, ks=1.0, env=None, footprint="trilinear",
               adds=(), lights=()):
-    from sgpipe.render.materials import pack_materials
-    from sgpipe.render.renderer import ObjectShading, Renderer
-    env = env or EnvData.constant(C)
-    _, m = material(model, param, kd, ks)
-    r = Renderer(env=env, materials=pack_materials([m]), objects=[ObjectShading(0, normal_map=-1)],
-                 lights=list(lights), vmf_han07_adds=tuple(adds))
-    data = NormalMapData.pack([pyr], [param], 1, [BRDF_MODELS[model]],
-                              [specular_sh_coeffs(model, param, han07_env.LMAX)],
-                              footprint=footprint)
-    attach_normalmaps(r, data.with_environment(np.zeros((9, 3)), True))
-    return r
+    """render_mirror.renderer with the environment on, every ρ̂_l to l* = 8, vmf_han07's adds."""
+    return renderer(model, param, pyr, kd=kd, ks=ks, lights=lights, env=env or EnvData.constant(C),
+                    rho=specular_sh_coeffs(model, param, han07_env.LMAX), env_sh=np.zeros((9, 3)),
+                    env_specular=True, footprint=footprint, vmf_han07_adds=tuple(adds))
 
 
 def _views(n, axis, max_deg, seed=7):

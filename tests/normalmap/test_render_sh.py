@@ -159,12 +159,8 @@ def test_nm_sh_han07_adds_give_nm_sh_back():
     rho = specular_sh_coeffs("blinn_phong", 9.0, 16)
 
     def shade(method, adds):
-        _, m = material("blinn_phong", 9.0, 0.3, 0.7)
-        r = Renderer(env=EnvData.constant(0.0), materials=pack_materials([m]),
-                     objects=[ObjectShading(0, normal_map=-1)], lights=[directional(LIGHT)],
-                     nm_sh_han07_adds=tuple(adds))
-        attach_normalmaps(r, NormalMapData.pack([pyr], [9.0], 1, [BRDF_MODELS["blinn_phong"]],
-                                                [rho], footprint="box"))
+        r = renderer("blinn_phong", 9.0, pyr, kd=0.3, ks=0.7, lights=[directional(LIGHT)],
+                     rho=rho, footprint="box", nm_sh_han07_adds=tuple(adds))
         return r.shade(method, flat_frame(views, uv, duv))
 
     published = shade("nm_sh_han07", ())
