@@ -15,7 +15,7 @@ per scene object: (first level row, levels, lobes J, has map). `nm_brdf` NM_BRDF
 per object: Blinn–Phong exponent s or microfacet roughness (Beckmann α, Cook–Torrance m), max
 taps along the footprint's major axis (1: isotropic), model (BRDF_MODELS), K (slots 0–3);
 environment specular on (1/0, slot 13), footprint filter (0 trilinear, 1 box:
-render.normalmap_footprint, slot 14); ρ̂_0 … ρ̂_16 of the specular function the SH method filters
+render.normalmap_footprint, slot 14), Han07 §5's l* (published_sh_order, slot 15); ρ̂_0 … ρ̂_16 of the specular function the SH method filters
 (eq 11, slots RHO0 …); the rest 0.
 `nm_env_sh` float4 per coefficient: the environment's radiance SH L_lm (world, l ≤ 2).
 `nm_env_sh8` one zero row here: vmf_han07 binds Han07 §8's tables in its place
@@ -38,6 +38,7 @@ BRDF_STRIDE = 36     # nm_shade.h NM_BRDF_STRIDE
 RHO0 = 16            # first ρ̂_l slot (nm_shade.h NM_RHO_SLOT)
 ENV_SLOT = 13        # environment specular on
 FOOT_SLOT = 14       # footprint filter (nm_shade.h NM_FOOT_SLOT): 0 trilinear, 1 box
+LSTAR_SLOT = 15      # Han07 §5's l* of the material (published_sh_order; nm_shade.h NM_LSTAR_SLOT)
 FOOTPRINTS = {"trilinear": 0, "box": 1}
 SH_LMAX = 16         # l* ≤ 16 (nm_shade.h NM_MAX_SH4 = 73 float4)
 SH_METHODS = {"nm_sh", "nm_sh_han07"}      # the methods that read the SH pyramid
@@ -136,6 +137,9 @@ class NormalMapData:
         brdf[:, 2] = models if models is not None else BRDF_MODELS["blinn_phong"]
         brdf[:, 3] = nsh
         brdf[:, FOOT_SLOT] = FOOTPRINTS[footprint]
+        name_of = {code: name for name, code in BRDF_MODELS.items()}
+        brdf[:, LSTAR_SLOT] = [published_sh_order(name_of[int(c)], float(p))
+                               for c, p in zip(brdf[:, 2], brdf[:, 0])]
         for k, rho in enumerate(rho_hat or []):
             if rho is not None:
                 brdf[k, RHO0:RHO0 + len(rho)] = np.asarray(rho, np.float32)[:SH_LMAX + 1]

@@ -62,6 +62,7 @@
 #define NM_COOK 3
 #define NM_LIGHT_LAMBDA 2e4f  /* delta lights' sharpness for the SSDF horizon (shading.h cap) */
 #define NM_FOOT_SLOT 14     /* nm_brdf: render.normalmap_footprint (0 trilinear, 1 box) */
+#define NM_LSTAR_SLOT 15    /* nm_brdf: Han07 §5's l* ≈ √(4s) (normalmap_data.published_sh_order) */
 #define NM_BOX_TEXELS 9     /* box footprint: texels of its level it may overlap */
 #define NM_BOX_L0_TAPS 4    /* box footprint at level 0: bilinear-normal taps per edge */
 #ifndef NM_L0_TAPS_PER_TEXEL

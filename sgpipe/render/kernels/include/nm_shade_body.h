@@ -145,13 +145,9 @@
     int k4 = (nsh + 3) / 4;
     int lsh = (int)(sqrt((float)nsh) + 0.5f) - 1;
 #ifdef NM_PUB_SH_LSTAR
-    /* §5: l* ≈ √(4s), s the Blinn–Phong exponent (microfacet: its equivalent 2/α² − 2), at
-     * least Lambert's 2; the render stage refuses a pyramid stored below it */
-    {
-        int model0 = (int)bp[2];
-        float se = model0 == NM_BLINN ? s : (model0 == NM_LAMBERT ? 0.0f : 2.0f / (s * s) - 2.0f);
-        lsh = min(lsh, max((int)ceil(sqrt(4.0f * fmax(se, 0.0f)) - 1e-4f), 2));
-    }
+    /* §5: l* ≈ √(4s) of the material (the record's, normalmap_data.published_sh_order); the
+     * render stage refuses a pyramid stored below it */
+    lsh = min(lsh, (int)bp[NM_LSTAR_SLOT]);
 #endif
     float g[4 * NM_MAX_SH4];
     for (int k = 0; k < 4 * k4; ++k) g[k] = 0.0f;
