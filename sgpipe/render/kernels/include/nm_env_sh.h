@@ -18,11 +18,6 @@ inline float nm_vmf_band(int l, float kappa) {
     return kappa > 1e20f ? 1.0f : exp(-(float)(l * l) / (2.0f * kappa));
 }
 
-/* κ of a lobe from its mean resultant length r (Algorithm 2 line 9; r ≥ 1: a single normal). */
-inline float nm_kappa_of(float r) {
-    return r >= 1.0f ? 1e30f : (3.0f * r - r * r * r) / (1.0f - r * r);
-}
-
 /* Eq 25: Σ_{l ≤ 2} Â_l e^{−l²/2κ} Σ_m L_lm Y_lm(μ) for a lobe about the world axis mu. */
 inline float3 nm_sh8_diffuse(__global const float4 *sh8, float3 mu, float kappa) {
     const float ah[3] = {3.14159265f, 2.09439510f, 0.785398163f};

@@ -47,7 +47,7 @@
             float3 r = t.yzw / t.x;
             float lr = length(r);
             if (lr <= 0.0f) continue;
-            float kappa = lr >= 1.0f ? 1e30f : (3.0f * lr - lr * lr * lr) / (1.0f - lr * lr);
+            float kappa = nm_kappa_of(lr);
             float sp = kappa > 1e20f ? s : kappa * s / (kappa + s);          /* eq 20 */
             float a2 = s * s + 2.0f / kappa;                                   /* eq 21 */
             float3 mu = normalize(to_world(r / lr, T, B, N));

@@ -104,6 +104,12 @@ inline int nm_box_axis(float c, float w, int m, int cap, int *idx, float *wt) {
     return k1 - k0 + 1;
 }
 
+/* κ of a lobe from its mean resultant length r (Algorithm 2 line 9, Banerjee's estimate; r ≥ 1:
+ * a single normal, κ = ∞ as 1e30). */
+inline float nm_kappa_of(float r) {
+    return r >= 1.0f ? 1e30f : (3.0f * r - r * r * r) / (1.0f - r * r);
+}
+
 /* The single-lobe methods' lobe from the mean normal's length rl (has_map 0: the material's
  * own lobe): (e, norm, a) and the D amplitude *amp — toksvig: e = f·s, f = rl/(rl + s(1 − rl)),
  * α′² = α² + 2(1 − rl)/rl; engine_bake / nm_sh: κ = (3rl − rl³)/(1 − rl²), eq 20 / 21;
@@ -118,7 +124,7 @@ inline float3 nm_single_lobe(int filter, int has_map, float rl, float s, float b
         float a2 = s * s + 2.0f * (1.0f - rl) / fmax(rl, 1e-6f);
         a = sqrt(a2); *amp = s * s / a2;
     } else if (has_map && (filter == NM_BAKE || filter == NM_SH)) {
-        float kappa = rl >= 1.0f ? 1e30f : (3.0f * rl - rl * rl * rl) / (1.0f - rl * rl);
+        float kappa = nm_kappa_of(rl);
         e = kappa > 1e20f ? s : kappa * s / (kappa + s);
         nrm = bnorm * (e + 1.0f);
         float a2 = s * s + 2.0f / fmax(kappa, 1e-6f);
