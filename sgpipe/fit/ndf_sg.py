@@ -19,6 +19,18 @@ _LAM_MIN, _LAM_MAX = 1e-2, 1e6
 AUTO_REL_L2 = 0.01
 AUTO_AREA_ERR = 0.02
 AUTO_MAX_LOBES = 6
+#: the third target, the tails: RMS relative error of D over the half-vectors where D is at
+#: least TAIL_FLOOR of its peak (`tail_error`). A light 10⁴ × brighter than its surroundings
+#: (a studio lamp) spreads D's tail down to 10⁻⁴ of the peak over the whole lobe as visible
+#: glow, which L2 and the projected area do not see: GGX's power-law tail (D ∝ 1/θ⁴) beyond
+#: the first lobes' reach is energy well under AUTO_AREA_ERR but the whole signal there.
+TAIL_FLOOR = 1e-4
+AUTO_TAIL_ERR = 0.1
+AUTO_MAX_TAIL_LOBES = 8
+#: weight of the relative residuals (f − D)/(D + TAIL_FLOOR·max D) beside the L2 residuals in
+#: the tail-aware LM fit (`fit_iso_lm`'s `tail`): enough to carry the fit into the tail, little
+#: enough that the core keeps its L2 accuracy (≤ 0.1 % relative L2 for GGX α 0.036, 7 lobes)
+TAIL_WEIGHT = 0.3
 #: stop adding lobes when one more lowers the L2 error by less than this fraction: positive SG
 #: mixtures are log-convex in 1 − cos θ, so they cannot follow a lighter-tailed D (Beckmann)
 _AUTO_MIN_GAIN = 0.05
@@ -34,6 +46,7 @@ class NdfSG:
     method: str
     rel_l2: float = float("nan")
     area_err: float = float("nan")   # relative error of ∫ D cos θ dω (fit_ndf_sg sets it)
+    tail_err: float = float("nan")   # `tail_error` (fit_ndf_sg sets it)
 
     def eval(self, h):
         h = np.asarray(h, float)
@@ -121,10 +134,24 @@ def iso_residuals(cos_t, values, weights):
     return res, jac
 
 
-def fit_iso_lm(cos_t, values, weights, n_lobes: int, lam0: float) -> tuple[np.ndarray, np.ndarray]:
+def _tail_residuals(cos_t, values, weights, tail: float):
+    """iso_residuals of the L2 error normalised by ∫ D², stacked on `tail` × the relative error
+    (f − D)/(D + TAIL_FLOOR·max D) normalised by the solid angle: one least-squares problem
+    that weighs the core by L2 and the tail by its relative error."""
+    floor = TAIL_FLOOR * float(np.max(values))
+    r1, j1 = iso_residuals(cos_t, values, weights / float(np.sum(weights * values**2)))
+    r2, j2 = iso_residuals(cos_t, values, tail**2 * weights / (values + floor) ** 2
+                           / float(np.sum(weights)))
+    return (lambda p: np.concatenate([r1(p), r2(p)])), (lambda p: np.vstack([j1(p), j2(p)]))
+
+
+def fit_iso_lm(cos_t, values, weights, n_lobes: int, lam0: float,
+               tail: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Levenberg–Marquardt (scipy `least_squares(method='lm')`) fit of n SG lobes about +z to an
-    isotropic function D(cos θ); several starts spread around λ0. Returns (λ, μ) by sharpness."""
-    res, jac = iso_residuals(cos_t, values, weights)
+    isotropic function D(cos θ); several starts spread around λ0. `tail` > 0 adds the tail's
+    relative error to the L2 objective (`_tail_residuals`). Returns (λ, μ) by sharpness."""
+    res, jac = (_tail_residuals(cos_t, values, weights, tail) if tail > 0
+                else iso_residuals(cos_t, values, weights))
 
     best = None
     for spread in (2.0, 4.0, 8.0):
@@ -219,11 +246,12 @@ def _ndf_alphas(ndf):
 
 
 def fit_ndf_sg(ndf, *, method: str = "auto", n_lobes: int = 1, seed: int = 0,
-               init: NdfSG | None = None) -> NdfSG:
+               init: NdfSG | None = None, tail: float = 0.0) -> NdfSG:
     """Wang09 §4: analytic for isotropic parametric NDFs, LM about +z for isotropic NDFs
     (tabulated; 1–2 lobes), L-BFGS-B with free axes for anisotropic NDFs; n_lobes = 0: the
     count of `auto_ndf_sg`. The relative L2 error vs the exact D over the hemisphere of h is
-    stored in `rel_l2`, the relative error of its projected area in `area_err`."""
+    stored in `rel_l2`, the relative error of its projected area in `area_err`, the tail's
+    relative error in `tail_err`. `tail` > 0: the LM fit weighs the tail too (TAIL_WEIGHT)."""
     if n_lobes == 0:
         return auto_ndf_sg(ndf, method=method, seed=seed)
     iso = ndf.isotropic
@@ -245,7 +273,7 @@ def fit_ndf_sg(ndf, *, method: str = "auto", n_lobes: int = 1, seed: int = 0,
             raise ValueError(f"no analytic SG for NDF {ndf.name!r}")
     elif method == "lm":
         lam0 = ndf.sg_analytic()[0] if ndf.sg_analytic() else 2.0 / ndf.width() ** 2
-        lam, mu = fit_iso_lm(c, d, w, n_lobes, lam0)
+        lam, mu = fit_iso_lm(c, d, w, n_lobes, lam0, tail)
         sg = NdfSG(np.tile([0.0, 0.0, 1.0], (n_lobes, 1)), lam, mu, "lm")
     elif method == "lbfgsb":
         sg = fit_free_lbfgsb(h, w, d, init if init is not None else em_init(ndf, n_lobes,
@@ -254,6 +282,7 @@ def fit_ndf_sg(ndf, *, method: str = "auto", n_lobes: int = 1, seed: int = 0,
         raise ValueError(f"unknown NDF fit method {method!r}")
     sg.rel_l2 = rel_l2(d, sg.eval(h), w)
     sg.area_err = projected_area_error(d, sg.eval(h), w, h[:, 2])
+    sg.tail_err = tail_error(d, sg.eval(h), w)
     return sg
 
 
@@ -263,14 +292,38 @@ def projected_area_error(values, approx, weights, cos_t) -> float:
     return float(np.sum(weights * approx * cos_t)) / den - 1.0 if den > 0 else 0.0
 
 
-def _meets_targets(sg: NdfSG) -> bool:
-    return sg.rel_l2 <= AUTO_REL_L2 and abs(sg.area_err) <= AUTO_AREA_ERR
+def _tail_relative(values, approx, weights):
+    """(f/D − 1, solid-angle weights) where D ≥ TAIL_FLOOR · max D."""
+    keep = values >= TAIL_FLOOR * float(np.max(values))
+    return approx[keep] / values[keep] - 1.0, weights[keep]
+
+
+def tail_error(values, approx, weights) -> float:
+    """RMS relative error |f/D − 1| over the directions where D ≥ TAIL_FLOOR · max D, weighted by
+    solid angle: how far the fit's glow around a bright light is from D's."""
+    rel, w = _tail_relative(values, approx, weights)
+    return float(np.sqrt(np.sum(w * rel * rel) / np.sum(w))) if np.sum(w) > 0 else 0.0
+
+
+def _tail_too_heavy(ndf, sg: NdfSG) -> bool:
+    """The fit's tail above D's on (solid-angle) average: D's tail is lighter than any positive
+    SG mixture's (log-convex in 1 − cos θ: Beckmann, Ward), and more lobes cannot help."""
+    c, w = iso_quadrature(ndf.width())
+    h = np.stack([np.sqrt(np.maximum(0.0, 1 - c * c)), np.zeros_like(c), c], -1)
+    rel, wt = _tail_relative(ndf.eval(h), sg.eval(h), w)
+    return float(np.sum(wt * rel)) > 0.0
+
+
+def _meets_targets(sg: NdfSG, tails: bool = False) -> bool:
+    return (sg.rel_l2 <= AUTO_REL_L2 and abs(sg.area_err) <= AUTO_AREA_ERR
+            and (not tails or sg.tail_err <= AUTO_TAIL_ERR))
 
 
 def auto_ndf_sg(ndf, *, method: str = "auto", seed: int = 0) -> NdfSG:
     """`fit.ndf_sg.lobes: 0`. Isotropic NDFs: Wang09's analytic lobe (eq 12) when it meets the
-    targets (AUTO_REL_L2 on D, AUTO_AREA_ERR on ∫ D cos θ), else the fewest LM lobes about +z
-    that do, adding lobes up to AUTO_MAX_LOBES while each still helps (GGX's tails: 3–4 lobes).
+    targets (AUTO_REL_L2 on D, AUTO_AREA_ERR on ∫ D cos θ, AUTO_TAIL_ERR on the tail), else the
+    fewest LM lobes about +z that meet the first two, adding lobes up to AUTO_MAX_LOBES while
+    each still helps, and where those miss the tail target, `_tail_fit` (GGX: 5–8 lobes).
     `method` analytic: the one analytic lobe; lbfgsb: 2 lobes (isotropic) or 8 with free axes
     (anisotropic, also auto's choice there)."""
     if method not in ("auto", "analytic", "lm", "lbfgsb"):
@@ -281,7 +334,7 @@ def auto_ndf_sg(ndf, *, method: str = "auto", seed: int = 0) -> NdfSG:
         return fit_ndf_sg(ndf, method=method, n_lobes=2 if ndf.isotropic else 8, seed=seed)
     if method == "auto" and ndf.sg_analytic() is not None:
         sg = fit_ndf_sg(ndf, method="analytic")
-        if _meets_targets(sg):
+        if _meets_targets(sg, tails=True):
             return sg
     best = fit_ndf_sg(ndf, method="lm", n_lobes=1, seed=seed)
     for n in range(2, AUTO_MAX_LOBES + 1):
@@ -291,7 +344,25 @@ def auto_ndf_sg(ndf, *, method: str = "auto", seed: int = 0) -> NdfSG:
         if nxt.rel_l2 > (1.0 - _AUTO_MIN_GAIN) * best.rel_l2:
             break
         best = nxt
-    return best
+    return best if _meets_targets(best, tails=True) else _tail_fit(ndf, best, seed)
+
+
+def _tail_fit(ndf, best: NdfSG, seed: int) -> NdfSG:
+    """The tail-aware LM fit (TAIL_WEIGHT) with the fewest lobes, from best's count up to
+    AUTO_MAX_TAIL_LOBES, that meets all three targets; else the one with the smallest tail
+    error that meets the other two, where it at least halves best's; else best (a positive SG
+    mixture is log-convex in 1 − cos θ and cannot follow a lighter tail than its widest lobe:
+    Beckmann's: `_tail_too_heavy`)."""
+    if _tail_too_heavy(ndf, best):
+        return best
+    cand = None
+    for n in range(max(2, best.axis.shape[0]), AUTO_MAX_TAIL_LOBES + 1):
+        sg = fit_ndf_sg(ndf, method="lm", n_lobes=n, seed=seed, tail=TAIL_WEIGHT)
+        if _meets_targets(sg, tails=True):
+            return sg
+        if _meets_targets(sg) and (cand is None or sg.tail_err < cand.tail_err):
+            cand = sg
+    return cand if cand is not None and cand.tail_err < 0.5 * best.tail_err else best
 
 
 def _add_lobe(sg: NdfSG, h, w, d) -> NdfSG:

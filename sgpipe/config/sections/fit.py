@@ -47,8 +47,10 @@ class NdfSGSpec:
         "Levenberg–Marquardt about +z for tabulated ones, L-BFGS-B with free axes for "
         "anisotropic ones.", "auto")
     lobes: int = doc("Lobes (0 = auto: Wang09's analytic lobe where it is within 1 % relative "
-                     "L2 of D and 2 % of ∫D cos θ, else the fewest Levenberg–Marquardt lobes "
-                     "that are (≤ 6; GGX 3–4); 8 free-axis lobes for anisotropic NDFs).", 0,
+                     "L2 of D, 2 % of ∫D cos θ and 10 % RMS relative error where D is at least "
+                     "10⁻⁴ of its peak (the glow of a bright light), else the fewest "
+                     "Levenberg–Marquardt lobes that are (≤ 8; sharp GGX 5, Beckmann and Ward "
+                     "1); 8 free-axis lobes for anisotropic NDFs).", 0,
                      ge=0, le=16)
     report_lobes: int = doc("Largest lobe count of the error-vs-lobes report (0 = none).", 4,
                             ge=0, le=16)
