@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 from sgpipe.experiments.corpus.measure import noisy
+from sgpipe.experiments.corpus.scenes import VISIBILITY
 
 #: column order of the matrix
 ORDER = ("sg", "gmm", "fis", "transport", "transport_green06", "vmf", "nm_sh", "normals_mip",
@@ -61,7 +62,9 @@ def markdown(rows: list[dict], meta: dict, misses: list[str]) -> str:
            f"(not a seed any method was tuned on; tuning seeds: "
            f"{', '.join(str(s) for s in meta['tuning_seeds'])})")
         + f", {meta['size']}² pixels, the real-time methods 3×3 supersampled, the reference "
-        f"box-filtered at 2 × {meta['spp']} spp (two seeds, averaged). Numbers are display "
+        f"box-filtered at 2 × {meta['spp']} spp (two seeds, averaged); shadows from "
+        f"{VISIBILITY['trace_resolution']}² rays per vertex into {VISIBILITY['resolution']}² "
+        f"SSDFs of {VISIBILITY['pca_terms']} PCA terms. Numbers are display "
         "PSNR in dB (the 8-bit preview: clamp at the preview exposure, sRGB) over the surface "
         "pixels, corrected for the reference's noise; `*` marks a cell within 3 dB of that "
         "noise, where the value is a lower bound. Each scene's preview exposure (≤ 0, in half "

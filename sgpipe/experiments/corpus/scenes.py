@@ -27,7 +27,7 @@ UNFILTERED = ("sg", "gmm", "fis")
 FILTERED = ("vmf", "nm_sh", "normals_mip", "toksvig", "engine_bake")
 #: slots whose shapes have few enough vertices for Green06's per-vertex transport
 TRANSPORT_SHAPES = ("sphere", "bowl", "pair", "ball_floor")
-VISIBILITY = {"trace_resolution": 32, "resolution": 16, "pca_terms": 48,
+VISIBILITY = {"trace_resolution": 128, "resolution": 32, "pca_terms": 48,
               "sphere_subdivisions": 3, "report_vertices": 0, "preview_vertices": 0}
 #: transport reads the frame's triangles from the visibility stage: the same tessellation
 TRANSPORT = {"report_vertices": 0, "sphere_subdivisions": VISIBILITY["sphere_subdivisions"]}
