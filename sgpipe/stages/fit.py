@@ -134,6 +134,7 @@ def write_ndf_sg(run, name: str, brdf, spec, seed: int) -> dict:
     lobes = int(sg.axis.shape[0])
     artifacts.write_ndf_sg(run, name, sg.arrays())
     rep = {"lobes": lobes, "method": sg.method, "rel_l2": sg.rel_l2, "area_err": sg.area_err,
+           "tail_err": sg.tail_err,
            "sharpness": sg.sharpness, "amplitude": sg.amplitude, "axis": sg.axis}
     an = analytic_ndf_sg(ndf)
     if an is not None:
