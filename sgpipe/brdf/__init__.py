@@ -82,7 +82,16 @@ def brdf_from_spec(spec) -> BRDF:
     return make_brdf(spec.model, params)
 
 
-__all__ = ["BRDF", "BRDFParamError", "REGISTRY", "make_brdf", "brdf_from_spec", "load_merl",
+def frame_rotation(spec) -> float:
+    """The angle (radians) a material turns the BRDF's frame by about the shading normal, from
+    the tangent towards the bitangent: gltf_pbr's `anisotropy_rotation`, 0 for other models."""
+    if spec.model != "gltf_pbr":
+        return 0.0
+    return float((spec.params or {}).get("anisotropy_rotation", 0.0))
+
+
+__all__ = ["BRDF", "BRDFParamError", "REGISTRY", "make_brdf", "brdf_from_spec",
+           "frame_rotation", "load_merl",
            "MerlBRDF", "read_merl", "write_merl", "synthesize_merl", "fit_tabulated",
            "tabulated_brdf", "Fresnel", "fresnel_schlick", "fresnel_dielectric",
            "fresnel_conductor", "half_vector", "reflect", "LUMINANCE"]

@@ -191,7 +191,10 @@ def gltf_pbr(params):
     """glTF 2.0 metal-rough BRDF (specification Appendix B): mix(dielectric, metal, metallic)
     = (1 − m)(1 − F_0.04(o·h)) c/π + F(o·h) V_GGX D_GGX, F Schlick with F0 = lerp(0.04, c, m),
     α = max(roughness, GLTF_MIN_ROUGHNESS)², V height-correlated Smith;
-    KHR_materials_anisotropy's strength s widens α along the tangent to lerp(α, 1, s²).
+    KHR_materials_anisotropy's strength s widens α along the tangent to lerp(α, 1, s²);
+    `anisotropy_rotation` (its anisotropyRotation, radians) turns that direction about the
+    shading normal from the tangent towards the bitangent (the renderers' frame, not the BRDF:
+    the BRDF here is in that turned frame).
     `emissive` (RGB radiance, default 0) is the surface's emission: not part of the BRDF, the
     renderers add it where they see the surface."""
     from sgpipe.brdf.base import GLTF_DIELECTRIC_F0
@@ -200,6 +203,7 @@ def gltf_pbr(params):
     metallic = p.number("metallic", 1.0, ge=0.0, le=1.0)
     rough = p.number("roughness", 1.0, ge=0.0, le=1.0)
     aniso = p.number("anisotropy", 0.0, ge=0.0, le=1.0)
+    p.number("anisotropy_rotation", 0.0)
     p.rgb("emissive", 0.0)
     p.finish()
     av = max(rough, GLTF_MIN_ROUGHNESS) ** 2

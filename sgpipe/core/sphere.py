@@ -175,6 +175,16 @@ def tangent_frame(n, t_hint=None):
     return t, b
 
 
+def turn_frame(t, b, angle):
+    """(t', b') = the tangent and bitangent turned by `angle` (radians, scalar or (N,)) about
+    their normal, from t towards b: t' = cos·t + sin·b, b' = cos·b − sin·t (an anisotropic
+    BRDF's direction, KHR_materials_anisotropy's anisotropyRotation)."""
+    c = np.cos(np.asarray(angle, float))[..., None]
+    s = np.sin(np.asarray(angle, float))[..., None]
+    t, b = np.asarray(t, float), np.asarray(b, float)
+    return c * t + s * b, c * b - s * t
+
+
 def to_local(d, n, t, b):
     """World → local (x along t, y along b, z along n)."""
     d = np.asarray(d, float)

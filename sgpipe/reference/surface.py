@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sgpipe.reference import _sampling_jit as jit
+from sgpipe.core.sphere import turn_frame
 
 
 @dataclass
@@ -60,6 +61,9 @@ class ObjectMaps:
     gltf: GltfSurface | None = None
     emission: np.ndarray | None = None
     emissive_texture: object | None = None
+    #: the BRDF frame turned about the shading normal (radians, from the tangent towards the
+    #: bitangent of the tangent's handedness): gltf_pbr's `anisotropy_rotation`
+    frame_rotation: float = 0.0
 
     @classmethod
     def of(cls, m) -> "ObjectMaps":
@@ -68,7 +72,8 @@ class ObjectMaps:
         if isinstance(m, ObjectMaps):
             return m
         return cls(**{k: m.get(k) for k in ("normal_map", "kd_map", "ks_map", "gltf",
-                                            "emission", "emissive_texture")})
+                                            "emission", "emissive_texture")},
+                   frame_rotation=float(m.get("frame_rotation", 0.0)))
 
     def __post_init__(self):
         for k in ("normal_map", "kd_map", "ks_map"):
@@ -87,7 +92,7 @@ class ObjectMaps:
     @property
     def empty(self) -> bool:
         return (self.normal_map is None and self.kd_map is None and self.ks_map is None
-                and self.gltf is None and self.emission is None)
+                and self.gltf is None and self.emission is None and self.frame_rotation == 0.0)
 
     def emitted(self, uv) -> np.ndarray | None:
         """(N, 3) emitted radiance at sgpipe UVs (N, 2), or None."""
@@ -214,6 +219,11 @@ def primary_rows(tracer, camera, px, py, maps=None, backfacing: str = "lift") ->
                     scaled = scaled or behind.size > 0
                 view[sel] = mapped_view(view[sel], t[sel], b[sel], n[sel], t2, b2, n2)
                 t[sel], b[sel], n[sel] = t2, b2, n2
+            if m.frame_rotation != 0.0:     # towards w · n × t, as the kernels' pixel_init
+                turn = np.full(sel.size, m.frame_rotation)
+                if hand is not None:
+                    turn[hand[sel] < 0] *= -1.0
+                t[sel], b[sel] = turn_frame(t[sel], b[sel], turn)
         if scaled:
             tex = (kd, ks, sv)
     return {"hit": gb.hit, "dirs": d64, "idx": idx, "pos": pos, "t": t, "b": b, "n": n,

@@ -17,7 +17,7 @@ from sgpipe.artifacts import fit as contract
 from sgpipe.artifacts import scalar
 from sgpipe.core.asg import x_angle
 from sgpipe.errors import BadInput
-from sgpipe.render.records import (ANISO, AU, AV, BASE, BCTEX, DIFFUSE, EMIT, EMTEX, ETA,
+from sgpipe.render.records import (ANISO, AROT, AU, AV, BASE, BCTEX, DIFFUSE, EMIT, EMTEX, ETA,
                                    ETAB, ETGRID, F0, FRESNEL, GMM, WARPN,
                                    GMM_FLAGS, GMM_K, GMM_NP, GMM_NT, GMM_TMAX, GSCALE, K, KD,
                                    KDTEX, KS, KSTEX, LOBE0, MAT_STRIDE, METAL, MRTEX, NLOBES,
@@ -85,6 +85,9 @@ class Material:
     exact_warp: bool = False             # sg's exact warped lobe mass (render.energy, WARPN)
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))   # emitted radiance
     emission_texture: int = -1           # its texture (× emission), −1: none
+    #: the anisotropy direction: the BRDF frame turned about the shading normal by this angle
+    #: (radians) from the tangent towards the bitangent (gltf_pbr `anisotropy_rotation`)
+    frame_rotation: float = 0.0
 
     @classmethod
     def lambert(cls, name: str, kd) -> "Material":
@@ -241,6 +244,7 @@ def pack_materials(materials: list[Material]) -> MaterialTable:
         r[WARPN] = float(m.exact_warp)
         r[EMIT:EMIT + 3] = np.asarray(m.emission, float)
         r[EMTEX] = m.emission_texture
+        r[AROT] = m.frame_rotation
         for slot, tab in ((ETAB, m.energy), (ETGRID, m.energy_grid)):
             if tab is not None:
                 pad = -n_tab % 4               # the kernels read these rows as float4

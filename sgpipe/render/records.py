@@ -66,6 +66,8 @@ class MaterialSlot(IntEnum):
     ETGRID = 49       # offset of its roughness grid's energy table (views × entries; −1: none)
     WARPN = 50        # 1: sg's warped sub-lobes carry the lobe's exact warped integral (GGX
                       # materials with energy tables: render.energy); 0: the narrow-lobe 1/(o·g)
+    AROT = 51         # anisotropy direction: the BRDF frame turned about the shading normal by
+                      # this angle (radians) from the tangent towards the bitangent
     EMIT = 52         # emitted radiance (RGB; gltf_pbr `emissive`)
     EMTEX = 55        # texture index of the emissive texture (−1: none), times EMIT
 

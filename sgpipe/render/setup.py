@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sgpipe.brdf import frame_rotation
 from sgpipe.errors import BadInput
 from sgpipe.io import read_data_image, read_exr
 from sgpipe.render.envdata import EnvData
@@ -99,6 +100,7 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
             m.ks_texture = textures.add(_image(t.ks_map, "render.material_textures.ks_map"),
                                         mip=True)
         m.gltf = _gltf_factors(gltf_textures(cfg, o, assets), textures)
+        m.frame_rotation = frame_rotation(spec)
         m.emission, etex = emission_of(cfg, spec, o, assets)
         if etex is not None:
             m.emission_texture = textures.add(etex.image, mip=True, wrap=etex.wrap,

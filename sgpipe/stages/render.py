@@ -215,6 +215,7 @@ def object_maps(cfg) -> list:
     its normal map, its material's kd / ks textures (render.material_textures), its textured
     glTF material and what it emits."""
     from sgpipe.reference import ObjectMaps
+    from sgpipe.brdf import frame_rotation
     from sgpipe.render.setup import (emission_of, gltf_normal_texture, object_material_specs,
                                      read_texture)
     tex = {t.material: t for t in cfg.render.material_textures}
@@ -237,7 +238,8 @@ def object_maps(cfg) -> list:
             kd_map=image(t.kd_map, "render.material_textures.kd_map") if t and t.kd_map else None,
             ks_map=image(t.ks_map, "render.material_textures.ks_map") if t and t.ks_map else None,
             gltf=_gltf_surface(cfg, o, assets),
-            emission=emission if emission.any() else None, emissive_texture=etex))
+            emission=emission if emission.any() else None, emissive_texture=etex,
+            frame_rotation=frame_rotation(specs[k])))
     return out
 
 

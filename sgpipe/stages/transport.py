@@ -11,8 +11,9 @@ from pathlib import Path
 import numpy as np
 
 from sgpipe.artifacts import transport as artifacts
-from sgpipe.brdf import REGISTRY, BRDFParamError, brdf_from_spec
+from sgpipe.brdf import REGISTRY, BRDFParamError, brdf_from_spec, frame_rotation
 from sgpipe.config.schema import to_plain
+from sgpipe.core.sphere import turn_frame
 from sgpipe.errors import BadInput
 from sgpipe.io.mesh import load_scene, object_files
 from sgpipe.parallel import map_chunks, progress
@@ -115,11 +116,16 @@ def _run(cfg, run: StageRun, tmp: Path, geoms, materials) -> None:
             t.indirect_transfer_paths)
         adj = vertex_adjacency(g.faces, len(g.positions))
         order = flood_order(adj)
-        b = g.bitangents
+        # the anisotropy direction (gltf_pbr `anisotropy_rotation`): the vertex frames turned
+        # about the normal, as the kernels' pixel_init turns the pixel's
+        turn = frame_rotation(materials[k][0])
+        if g.handedness is not None:       # towards w · n × t
+            turn = turn * np.asarray(g.handedness, float)
+        tng, b = turn_frame(g.tangents, g.bitangents, turn)
         for s in range(0, len(order), t.chunk_vertices):
             o = order[s:s + t.chunk_vertices]
             tasks.append(TransportTask(str(tri_path), o, g.positions[o], g.normals[o],
-                                       g.tangents[o], b[o], [adj[i] for i in o], model, params,
+                                       tng[o], b[o], [adj[i] for i in o], model, params,
                                        t.cube_resolution, offset, opts,
                                        float(np.sin(np.radians(t.min_view_elevation_deg))),
                                        ind, t.sampling, t.lobe_samples))

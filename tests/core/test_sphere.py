@@ -122,3 +122,20 @@ def test_tangent_frame(rng):
     loc = to_local(d, n, t, b)
     np.testing.assert_allclose(to_world(loc, n, t, b), d, atol=1e-12)
     np.testing.assert_allclose(loc[:, 2], np.sum(d * n, -1), atol=1e-15)
+
+
+def test_turn_frame_turns_the_tangent_towards_the_bitangent():
+    """turn_frame: an orthonormal frame about the same normal, the tangent at `angle` from t
+    towards b (a quarter turn takes t to b and b to −t), angles per row."""
+    from sgpipe.core.sphere import tangent_frame, turn_frame
+    rng = np.random.default_rng(3)
+    n = unit(rng.normal(size=(200, 3)))
+    t, b = tangent_frame(n)
+    a = rng.uniform(-4.0, 4.0, 200)
+    t2, b2 = turn_frame(t, b, a)
+    np.testing.assert_allclose(np.sum(t2 * t, -1), np.cos(a), atol=1e-12)
+    np.testing.assert_allclose(np.sum(t2 * b, -1), np.sin(a), atol=1e-12)
+    np.testing.assert_allclose(np.cross(n, t2), b2, atol=1e-12)
+    q, r = turn_frame(t, b, np.pi / 2)
+    np.testing.assert_allclose(q, b, atol=1e-12)
+    np.testing.assert_allclose(r, -t, atol=1e-12)

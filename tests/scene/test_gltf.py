@@ -282,3 +282,21 @@ def test_a_file_is_read_once_for_all_its_objects(tmp_path, asset, monkeypatch):
     monkeypatch.setattr(reader, "read_gltf", lambda p: calls.append(p) or real(p))
     assert len(load_scene(cfg.scene)) == 2
     assert len(calls) == 1
+
+
+def test_anisotropy_strength_and_rotation_are_read(tmp_path):
+    """KHR_materials_anisotropy's strength and rotation become `gltf_pbr`'s `anisotropy` and
+    `anisotropy_rotation` (radians; tests/render/test_fidelity_floors.py renders it); its
+    texture is named as not read; a rotation that is not a number is refused."""
+    from sgpipe.io.gltf_materials import read_materials
+    doc = gb.build()
+    doc.materials[0].extensions = {"KHR_materials_anisotropy": {
+        "anisotropyStrength": 0.6, "anisotropyRotation": -2.5, "anisotropyTexture": {"index": 0}}}
+    path = _glb(tmp_path, doc)
+    m = read_materials(path, doc)[0]
+    assert m.params()["anisotropy"] == 0.6 and m.params()["anisotropy_rotation"] == -2.5
+    assert m.textures[-1] == "KHR_materials_anisotropy.anisotropyTexture"
+    assert "anisotropy_rotation" not in read_materials(path, gb.build())[0].params()
+    doc.materials[0].extensions["KHR_materials_anisotropy"]["anisotropyRotation"] = "east"
+    _expect(_glb(tmp_path, doc),
+            "materials[0].extensions.KHR_materials_anisotropy.anisotropyRotation", "east")

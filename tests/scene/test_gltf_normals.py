@@ -82,3 +82,33 @@ def test_normal_texture_renders_as_the_normal_it_encodes(tmp_path, given):
     wrong = _render(tmp_path, flipped, "flipped", vis)["sg"][rows]
     b = want["sg"][rows]
     assert np.abs(wrong - b).mean() / np.abs(b).mean() > 0.05
+
+
+def test_anisotropy_rotation_turns_towards_the_handed_bitangent(tmp_path):
+    """KHR_materials_anisotropy's rotation θ turns the anisotropy direction from TANGENT towards
+    the bitangent w (n × t): on the mirrored strip (left half t = −x, w = −1; right t = +x,
+    w = 1; both bitangents +y) a rotation of 0.8 rad renders, in every method, as the same strip
+    with its TANGENTs given as the turned directions (∓cos θ, sin θ) and no rotation; turning
+    the left half the other way (w ignored) does not."""
+    th = 0.8
+    c, s = np.cos(th), np.sin(th)
+    ext = lambda rot: {"KHR_materials_anisotropy": {"anisotropyStrength": 0.9,   # noqa: E731
+                                                   "anisotropyRotation": rot}}
+
+    def strip(tangents, rot, name):
+        doc = gb.mirrored_strip(tangents=tangents, roughness=0.3)
+        doc.materials[0].extensions = ext(rot)
+        return gb.write_glb(doc, tmp_path / f"{name}.glb")
+
+    turned = _render(tmp_path, strip([[-1, 0, 0, -1], [1, 0, 0, 1]], th, "turned"), "turned")
+    given = _render(tmp_path, strip([[-c, s, 0, -1], [c, s, 0, 1]], 0.0, "given"), "given")
+    unhanded = _render(tmp_path, strip([[-c, -s, 0, -1], [c, s, 0, 1]], 0.0, "unhanded"),
+                       "unhanded")
+    rows = slice(6, 26)
+    for method in METHODS:
+        a, b = turned[method][rows], given[method][rows]
+        assert np.abs(b).mean() > 0.02
+        assert np.abs(a - b).mean() / np.abs(b).mean() <= 2e-3, method
+    left = (rows, slice(0, 16))
+    b = given["sg"][left]
+    assert np.abs(unhanded["sg"][left] - b).mean() / np.abs(b).mean() > 0.05

@@ -95,6 +95,11 @@ inline float4 quat_from_z(float3 n) {
     return l > 1e-8f ? q / l : (float4)(1.0f, 0.0f, 0.0f, 0.0f);
 }
 inline float4 quat_conj(float4 q) { return (float4)(-q.x, -q.y, -q.z, q.w); }
+/* Hamilton product a ⊗ b (x, y, z, w): rotate by b, then by a. */
+inline float4 quat_mul(float4 a, float4 b) {
+    return (float4)(a.w * b.xyz + b.w * a.xyz + cross(a.xyz, b.xyz),
+                    a.w * b.w - dot(a.xyz, b.xyz));
+}
 
 /* Tangent-space normal (texture RGB n·0.5 + 0.5, z up, green = +v) → unit local normal. */
 inline float3 normal_from_map(float4 c) {
@@ -281,6 +286,14 @@ inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const flo
                    : tex_bilinear(texels, texinfo[nm], p.uv);
         if (gtan[gid].w < 0.0f) c.y = 1.0f - c.y;
         p.q = quat_from_z(normal_from_map(c));
+    }
+    /* the anisotropy direction (MAT_AROT): the BRDF frame turned about the (mapped) normal,
+     * from the tangent towards the bitangent of the tangent's handedness (glTF's bitangent
+     * is w · n × t) */
+    float rot = p.m[MAT_AROT];
+    if (rot != 0.0f) {
+        float h = 0.5f * (gtan[gid].w < 0.0f ? -rot : rot);
+        p.q = quat_mul(p.q, (float4)(0.0f, 0.0f, sin(h), cos(h)));
     }
     p.qi = quat_conj(p.q);
     float3 ol = lift(to_local(gview[gid].xyz, p.T, p.B, p.N), 0.01f);
