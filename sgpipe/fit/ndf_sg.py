@@ -29,7 +29,7 @@ AUTO_TAIL_ERR = 0.1
 AUTO_MAX_TAIL_LOBES = 8
 #: weight of the relative residuals (f − D)/(D + TAIL_FLOOR·max D) beside the L2 residuals in
 #: the tail-aware LM fit (`fit_iso_lm`'s `tail`): enough to carry the fit into the tail, little
-#: enough that the core keeps its L2 accuracy (≤ 0.1 % relative L2 for GGX α 0.036, 7 lobes)
+#: enough that the core still meets AUTO_REL_L2
 TAIL_WEIGHT = 0.3
 #: stop adding lobes when one more lowers the L2 error by less than this fraction: positive SG
 #: mixtures are log-convex in 1 − cos θ, so they cannot follow a lighter-tailed D (Beckmann)
@@ -323,7 +323,7 @@ def auto_ndf_sg(ndf, *, method: str = "auto", seed: int = 0) -> NdfSG:
     """`fit.ndf_sg.lobes: 0`. Isotropic NDFs: Wang09's analytic lobe (eq 12) when it meets the
     targets (AUTO_REL_L2 on D, AUTO_AREA_ERR on ∫ D cos θ, AUTO_TAIL_ERR on the tail), else the
     fewest LM lobes about +z that meet the first two, adding lobes up to AUTO_MAX_LOBES while
-    each still helps, and where those miss the tail target, `_tail_fit` (GGX: 5–8 lobes).
+    each still helps, and where those miss the tail target, `_tail_fit` (sharp GGX: 5 lobes).
     `method` analytic: the one analytic lobe; lbfgsb: 2 lobes (isotropic) or 8 with free axes
     (anisotropic, also auto's choice there)."""
     if method not in ("auto", "analytic", "lm", "lbfgsb"):
