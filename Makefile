@@ -75,6 +75,7 @@ figures: setup
 	$(PY) -m sgpipe.experiments.wang09 --out $(OUT)/figures/wang09 --results docs/results/wang09.md
 	$(PY) -m sgpipe.experiments.toral19 --out $(OUT)/figures/toral19 --results docs/results/toral19.md
 	$(PY) -m sgpipe.experiments.green06_ladder --out $(OUT)/figures/green06_ladder --results docs/results/green06_ladder.md
+	$(PY) -m sgpipe.experiments.green06_indirect --out $(OUT)/figures/green06_indirect --results docs/results/green06_indirect.md
 	$(PY) -m sgpipe.experiments.han07_ladder --out $(OUT)/figures/han07_ladder --results docs/results/han07_ladder.md
 	$(PY) -m sgpipe.experiments.gltf_textures --out $(OUT)/figures/gltf_textures --results docs/results/gltf_textures.md
 
