@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sgpipe.reference import _sampling_jit as jit
 from sgpipe.core.sphere import turn_frame
+from sgpipe.reference import _sampling_jit as jit
 
 
 @dataclass
