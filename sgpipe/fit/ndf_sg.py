@@ -47,6 +47,8 @@ class NdfSG:
     rel_l2: float = float("nan")
     area_err: float = float("nan")   # relative error of ∫ D cos θ dω (fit_ndf_sg sets it)
     tail_err: float = float("nan")   # `tail_error` (fit_ndf_sg sets it)
+    #: the fit's tail above D's on (solid-angle) average (fit_ndf_sg sets it)
+    tail_heavy: bool = False
 
     def eval(self, h):
         h = np.asarray(h, float)
@@ -283,6 +285,8 @@ def fit_ndf_sg(ndf, *, method: str = "auto", n_lobes: int = 1, seed: int = 0,
     sg.rel_l2 = rel_l2(d, sg.eval(h), w)
     sg.area_err = projected_area_error(d, sg.eval(h), w, h[:, 2])
     sg.tail_err = tail_error(d, sg.eval(h), w)
+    rel, wt = _tail_relative(d, sg.eval(h), w)
+    sg.tail_heavy = float(np.sum(wt * rel)) > 0.0
     return sg
 
 
@@ -303,15 +307,6 @@ def tail_error(values, approx, weights) -> float:
     solid angle: how far the fit's glow around a bright light is from D's."""
     rel, w = _tail_relative(values, approx, weights)
     return float(np.sqrt(np.sum(w * rel * rel) / np.sum(w))) if np.sum(w) > 0 else 0.0
-
-
-def _tail_too_heavy(ndf, sg: NdfSG) -> bool:
-    """The fit's tail above D's on (solid-angle) average: D's tail is lighter than any positive
-    SG mixture's (log-convex in 1 − cos θ: Beckmann, Ward), and more lobes cannot help."""
-    c, w = iso_quadrature(ndf.width())
-    h = np.stack([np.sqrt(np.maximum(0.0, 1 - c * c)), np.zeros_like(c), c], -1)
-    rel, wt = _tail_relative(ndf.eval(h), sg.eval(h), w)
-    return float(np.sum(wt * rel)) > 0.0
 
 
 def _meets_targets(sg: NdfSG, tails: bool = False) -> bool:
@@ -352,8 +347,8 @@ def _tail_fit(ndf, best: NdfSG, seed: int) -> NdfSG:
     AUTO_MAX_TAIL_LOBES, that meets all three targets; else the one with the smallest tail
     error that meets the other two, where it at least halves best's; else best (a positive SG
     mixture is log-convex in 1 − cos θ and cannot follow a lighter tail than its widest lobe:
-    Beckmann's: `_tail_too_heavy`)."""
-    if _tail_too_heavy(ndf, best):
+    Beckmann's, Ward's: `tail_heavy`, the fit's tail above D's on average)."""
+    if best.tail_heavy:
         return best
     cand = None
     for n in range(max(2, best.axis.shape[0]), AUTO_MAX_TAIL_LOBES + 1):
