@@ -1,7 +1,8 @@
 """Generated scene inputs, written on demand into validation/generated/ (git-ignored): the
-thick bowl, lat-long maps with hard-edged lamps or a low sun (sgpipe.experiments.corpus.assets)
-and small kd / ks textures. A scene names one as `../generated/<name>`; every generator is a
-pure function of its name (fixed seeds), so the files are the same on every machine."""
+thick bowl, lat-long maps with hard-edged lamps or a low sun (sgpipe.experiments.corpus.assets),
+small kd / ks textures and a glTF ball with textured roughness (validation.gltf). A scene names
+one as `../generated/<name>`; every generator is a pure function of its name (fixed seeds), so
+the files are the same on every machine."""
 
 from __future__ import annotations
 
@@ -50,12 +51,18 @@ def _texture(seed: int, size: int, lo: float, hi: float):
     return make
 
 
+def _rough_metal_ball(path: Path) -> None:
+    from validation.gltf import write_rough_metal_ball
+    write_rough_metal_ball(path)
+
+
 GENERATORS = {
     "bowl.obj": _bowl,
     "lamps_seed4.exr": _lamps(4),
     "sky_low_sun_seed5.exr": _sun(5, True),
     "kd_texture_8.exr": _texture(11, 8, 0.1, 1.0),
     "ks_texture_6.exr": _texture(12, 6, 0.0, 1.0),
+    "rough_metal_ball.glb": _rough_metal_ball,
 }
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from validation import import_mitsuba
-from validation.conventions import (bsdf_dict, emitter_dict, envmap_for_mitsuba,
+from validation.conventions import (Unmappable, bsdf_dict, emitter_dict, envmap_for_mitsuba,
                                     envmap_to_world, pixel_centres, rfilter_dict, sensor_params,
                                     sphere_to_world)
 from validation.textures import (check_mappable, normalmap_bsdf_dict, textured_bsdf_dict)
@@ -49,6 +49,8 @@ def _object_bsdf(cfg, spec, brdf, has_uvs: bool) -> dict:
     """bsdf_dict of the object's material with its kd / ks textures (render.material_textures)
     and its normal map, as sgpipe's reference reads them (sgpipe.stages.render.object_maps)."""
     from sgpipe.render.setup import read_texture
+    if brdf.name == "gltf_pbr":
+        return _gltf_bsdf(cfg, spec, has_uvs)
     tex = {t.material: t for t in cfg.render.material_textures}.get(spec.material)
     kd_map = read_texture(tex.kd_map, "kd_map") if tex is not None and tex.kd_map else None
     ks_map = read_texture(tex.ks_map, "ks_map") if tex is not None and tex.ks_map else None
@@ -58,6 +60,20 @@ def _object_bsdf(cfg, spec, brdf, has_uvs: bool) -> dict:
     if spec.normal_map is not None:
         d = normalmap_bsdf_dict(d, read_texture(spec.normal_map, "normal_map"))
     return d
+
+
+def _gltf_bsdf(cfg, spec, has_uvs: bool) -> dict:
+    """validation.gltf's Mitsuba BSDF of a glTF primitive's `gltf_pbr` material and its
+    textures, as sgpipe's reference reads them (render.setup.gltf_textures)."""
+    from sgpipe.render.setup import gltf_normal_texture, gltf_textures
+    from validation.gltf import gltf_bsdf_dict
+    mat = next(m for m in cfg.fit.materials if m.name == spec.material)
+    textures = gltf_textures(cfg, spec, {})
+    if gltf_normal_texture(cfg, spec, {}) is not None:
+        raise Unmappable(f"object {spec.name!r}: a glTF normal texture (its MikkTSpace frame "
+                         "is not Mitsuba's per-triangle ∂p/∂u)")
+    check_mappable(spec, has_uvs=has_uvs, textured=textures is not None)
+    return gltf_bsdf_dict(mat, textures)
 
 
 #: envmap resampling (conventions.envmap_for_mitsuba): 4× in u, 16× in v, so a lamp's edge seen
