@@ -150,6 +150,9 @@ WANG09_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
     "fh": (("W09_FH_RAW", 1), ("FH_TABLE", None),
            *zip(("FH_A", "FH_C3", "FH_C2", "FH_C1", "FH_C0"),
                 (1.05, 0.204, -0.892, 2.995, 0.067))),
+    # eq 31 for the environment: the lobe's amplitude scaled by f̂_h, its centre and sharpness
+    # kept (sg: the visible part's L2-closest lobe, core.fh_clip)
+    "clip": (("W09_NO_CLIP", 1),),
     # eq 42–43 for every light (sg: lights sharper than λ 64 as E max(0, n·l) f̂_h)
     "sharp_lights": (("SHARP_LIGHT", 1e30),),
     # the lobes for the point set and sharp lights (sg: the exact BRDF from the NDF table)

@@ -162,6 +162,10 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
          * offset in the plane of incidence, take θ_d shifted by their change of elevation
          * (exact for the horizon) */
         float th0 = 0.0f, el0 = 0.0f;
+#ifndef W09_NO_CLIP
+        float3 g0 = (float3)(0.0f);       /* θ_d's gradient at the first clipped sub-lobe */
+        int has_g0 = 0;
+#endif
         for (int k = 0; k < nsub; ++k) {
             SG w;
             if (j < nl) w = sub[k];
@@ -181,7 +185,21 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
                 float el = asin(clamp(s.p.z, -1.0f, 1.0f));
                 if (k == 0) { th0 = vis_theta(vis, s.p); el0 = el; }
                 float th = clamp(th0 + (el - el0), -1.5707963f, 1.5707963f);
+#ifdef W09_NO_CLIP
                 SG sv = sg_times_visibility(s, th);
+#else
+                SG sv;
+                if (clip_none(th, s.lam)) {
+                    sv = sg_times_visibility(s, th);
+                } else {
+                    /* one gradient per NDF lobe, carried to each sub-lobe's tangent plane */
+                    if (!has_g0) { g0 = vis_gradient(vis, s.p, th); has_g0 = 1; }
+                    float3 g = g0 - dot(g0, s.p) * s.p;
+                    float lg = length(g);
+                    g = lg > 1e-6f ? g / lg : vis_gradient(vis, s.p, th);
+                    sv = sg_clip_visible(s, th, g);
+                }
+#endif
                 float3 pw = normalize(to_world(sv.p, T, B, N));
                 renv += sv.mu * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam,
                                                             pyr_n, pyr_log_ratio, env_mean.xyz,
