@@ -57,10 +57,12 @@ _HEADERS: dict[str, str] = {}
 
 
 def layout_headers() -> dict[str, str]:
-    """`records.h` and `methods.h` (name → source, cached per process): every build gets them."""
-    if not _HEADERS:
-        _HEADERS.update({"records.h": records_header(), "methods.h": methods_header()})
-    return {k: _HEADERS[k] for k in ("records.h", "methods.h")}
+    """`records.h`, `methods.h` and `fh_clip.h` (name → source, cached per process): every
+    build gets them."""
+    if "records.h" not in _HEADERS:
+        _HEADERS.update({"records.h": records_header(), "methods.h": methods_header(),
+                         "fh_clip.h": fh_clip_header()})
+    return {k: _HEADERS[k] for k in ("records.h", "methods.h", "fh_clip.h")}
 
 
 def kernel_headers(fh_mode: str) -> dict[str, str]:
@@ -68,9 +70,6 @@ def kernel_headers(fh_mode: str) -> dict[str, str]:
     if fh_mode not in ("table", "sigmoid"):
         raise ValueError(f"fh_mode must be table or sigmoid, got {fh_mode!r}")
     out = layout_headers()
-    if "fh_clip.h" not in _HEADERS:
-        _HEADERS["fh_clip.h"] = fh_clip_header()
-    out["fh_clip.h"] = _HEADERS["fh_clip.h"]
     if fh_mode == "table":
         if "fh_table.h" not in _HEADERS:
             _HEADERS["fh_table.h"] = fh_table_header()
