@@ -218,3 +218,72 @@ def test_two_glossy_objects_on_a_glossy_floor(tmp_path):
         mu, sigma, w, stored = compact.read_gaussians(tmp_path / "o" / "transport", obj)
         assert np.isfinite(mu).all() and np.isfinite(sigma).all() and np.isfinite(w).all()
         assert stored.any(), obj
+
+
+def _aniso_floor(tmp_path, rotation: float):
+    write_floor(tmp_path / "floor.obj", 4)
+    p = tmp_path / f"aniso_{rotation:g}.yaml"
+    p.write_text(textwrap.dedent(f"""
+        name: aniso
+        seed: 1
+        workers: 1
+        scene:
+          objects:
+            - {{name: floor, mesh: floor.obj, material: brushed}}
+        fit:
+          materials:
+            - {{name: brushed, model: gltf_pbr, params: {{base_color: [0.9, 0.8, 0.7],
+                metallic: 1.0, roughness: 0.3, anisotropy: 0.8,
+                anisotropy_rotation: {rotation!r}}}}}
+        transport:
+          cube_resolution: 8
+          chunk_vertices: 16
+          report_vertices: 8
+          max_iterations: 10
+        """))
+    return p
+
+
+def test_anisotropy_rotation_turns_the_vertex_frames(tmp_path, monkeypatch):
+    """gltf_pbr's `anisotropy_rotation` turns each vertex's tangent frame about its normal
+    (towards w · n × t), as the kernels turn the pixel's: the frames the chunks receive are
+    core.sphere.turn_frame's; a half turn (the anisotropic lobe is symmetric under it) stores
+    the same Gaussians, a quarter turn other ones."""
+    from sgpipe.core.sphere import turn_frame
+    from sgpipe.io.mesh import load_scene
+    seen = []
+    real = stage.TransportTask
+
+    def spy(*args, **kw):
+        seen.append((np.asarray(args[2]), np.asarray(args[4]), np.asarray(args[5])))
+        return real(*args, **kw)
+    monkeypatch.setattr(stage, "TransportTask", spy)
+    out = {}
+    for rot in (0.0, np.pi, np.pi / 2):
+        seen.clear()
+        cfg = load_config(_aniso_floor(tmp_path, rot))
+        stage.run(cfg, tmp_path / f"o{rot:g}")
+        (g,) = load_scene(cfg.scene)
+        turn = rot * (np.asarray(g.handedness, float) if g.handedness is not None else 1.0)
+        want_t, want_b = turn_frame(g.tangents, g.bitangents, turn)
+        for pos, tng, bit in seen:
+            idx = [int(np.argmin(np.linalg.norm(g.positions - q, axis=1))) for q in pos]
+            np.testing.assert_allclose(tng, want_t[idx], atol=1e-9)
+            np.testing.assert_allclose(bit, want_b[idx], atol=1e-9)
+        out[rot] = compact.read_gaussians(tmp_path / f"o{rot:g}" / "transport", "floor")
+    # a half turn of the frame is a half turn of the whole vertex about its normal n: view v
+    # then stores what view R v stored, R v = 2 (v·n) n − v (the view set is symmetric under it)
+    from sgpipe.transport.views import view_set
+    n = g.normals[0]
+    assert np.allclose(g.normals, n)                     # the floor
+    views = view_set()[0]
+    rv = 2.0 * (views @ n)[:, None] * n - views
+    j = np.argmax(rv @ views.T, axis=1)
+    assert np.allclose(views[j], rv, atol=1e-9)
+    mu0, s0, w0, _ = out[0.0]
+    mu1, s1, w1, _ = out[np.pi]
+    np.testing.assert_allclose(w1, w0[:, j], rtol=1e-6, atol=1e-9)
+    lit = (w0[:, j] > 0).any(-1)               # σ of a weightless Gaussian is not rendered
+    np.testing.assert_allclose(s1[lit], s0[:, j][lit], rtol=1e-6, atol=1e-9)
+    assert np.abs(w1 - w0).max() > 1e-3 * np.abs(w0).max()   # the views do move
+    assert np.abs(out[np.pi / 2][2] - w0).max() > 0.01 * np.abs(w0).max()
