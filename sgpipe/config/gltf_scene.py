@@ -33,6 +33,9 @@ def _unique(name: str, taken: set[str], tag: str) -> str:
 #: method that renders `gltf_pbr`
 PER_PIXEL_TEXTURES = ("baseColorTexture", "metallicRoughnessTexture")
 EVERY_METHOD_TEXTURES = ("normalTexture", "emissiveTexture")
+#: KHR_materials_anisotropy's texture: its direction every method that turns the BRDF frame,
+#: its strength the per-pixel exact BRDFs (reference, fis); sg's lobes keep the factor's
+ANISOTROPY_TEXTURE = "KHR_materials_anisotropy.anisotropyTexture"
 
 
 def _texture_note(textures: list[str]) -> str:
@@ -40,12 +43,16 @@ def _texture_note(textures: list[str]) -> str:
     parts = []
     per_pixel = [t for t in textures if t in PER_PIXEL_TEXTURES]
     every = [t for t in textures if t in EVERY_METHOD_TEXTURES]
-    unread = [t for t in textures if t not in PER_PIXEL_TEXTURES + EVERY_METHOD_TEXTURES]
+    unread = [t for t in textures
+              if t not in PER_PIXEL_TEXTURES + EVERY_METHOD_TEXTURES + (ANISOTROPY_TEXTURE,)]
     if per_pixel:
         parts.append(f"reference, sg and fis read its {' and '.join(per_pixel)}, the other "
                      "methods its factors")
     if every:
         parts.append(f"every method reads its {' and '.join(every)}")
+    if ANISOTROPY_TEXTURE in textures:
+        parts.append(f"every method reads its {ANISOTROPY_TEXTURE}'s direction, the reference "
+                     "and fis also its strength (sg's lobes keep the factor's)")
     if unread:
         parts.append(f"{', '.join(unread)} not read")
     return "; ".join(parts)

@@ -82,7 +82,7 @@ def read_materials(path: Path, doc) -> list[GltfMaterial]:
                     if pbr is not None and getattr(pbr, t, None) is not None]
         textures += [t for t in ("normalTexture", "occlusionTexture", "emissiveTexture")
                      if getattr(m, t, None) is not None]
-        if aniso.get("anisotropyTexture"):              # reported as not read
+        if aniso.get("anisotropyTexture"):
             textures.append("KHR_materials_anisotropy.anisotropyTexture")
         out.append(GltfMaterial(i, m.name or f"material{i}", rgb, metal, rough, strength,
                                 textures, emissive, rotation))

@@ -134,18 +134,38 @@ def _transform(info) -> np.ndarray | None:
     return t @ rot @ np.diag([sx, sy, 1.0])
 
 
+#: the anisotropy texture's slot name (KHR_materials_anisotropy's textureInfo)
+ANISOTROPY_TEXTURE = "KHR_materials_anisotropy.anisotropyTexture"
+
+
+def _texture_info(m, slot: str):
+    """(textureInfo or None, its element path below materials[i]) of a material's slot."""
+    if slot == ANISOTROPY_TEXTURE:
+        d = ((m.extensions or {}).get("KHR_materials_anisotropy") or {}).get(
+            "anisotropyTexture")
+        if not d:
+            return None, ""
+        import pygltflib
+        if not isinstance(d, dict):
+            return d, f"extensions.{slot}"
+        return (pygltflib.TextureInfo(index=d.get("index"), texCoord=d.get("texCoord", 0),
+                                      extensions=d.get("extensions") or {}),
+                f"extensions.{slot}")
+    pbr = slot in ("baseColorTexture", "metallicRoughnessTexture")
+    holder = m.pbrMetallicRoughness if pbr else m
+    info = getattr(holder, slot, None) if holder is not None else None
+    return info, ("pbrMetallicRoughness." if pbr else "") + slot
+
+
 def material_texture(asset, material: int, slot: str) -> GltfTexture | None:
     """The texture in `slot` (baseColorTexture, metallicRoughnessTexture, normalTexture,
-    occlusionTexture, emissiveTexture) of material `material`, decoded; None if it has none."""
+    occlusionTexture, emissiveTexture, ANISOTROPY_TEXTURE) of material `material`, decoded;
+    None if it has none."""
     doc, path = asset.doc, asset.path
-    m = doc.materials[material]
-    holder = m.pbrMetallicRoughness if slot in ("baseColorTexture",
-                                                 "metallicRoughnessTexture") else m
-    info = getattr(holder, slot, None) if holder is not None else None
+    info, rel = _texture_info(doc.materials[material], slot)
     if info is None:
         return None
-    where = (f"materials[{material}]." + ("pbrMetallicRoughness." if holder is not m else "")
-             + slot)
+    where = f"materials[{material}].{rel}"
     ext = (getattr(info, "extensions", None) or {}).get("KHR_texture_transform") or {}
     coord = ext.get("texCoord", info.texCoord or 0)
     if coord != 0:

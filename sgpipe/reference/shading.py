@@ -90,7 +90,7 @@ def _object_brdf(brdfs, m, tex, sel):
     if not np.isfinite(p[:, 0]).all():
         return brdf
     from sgpipe.brdf.gltf_rows import GltfRows
-    return GltfRows(p[:, :3], p[:, 3], p[:, 4], brdf.params.get("anisotropy", 0.0))
+    return GltfRows(p[:, :3], p[:, 3], p[:, 4], p[:, 5])
 
 
 def _technique(brdf, tracer, env, o, t, b, n, ng, org, tex, u1, u2, which, strategy, mis):

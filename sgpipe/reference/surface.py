@@ -32,13 +32,19 @@ class GltfSurface:
     roughness: float
     base_texture: object | None = None      # GltfTexture
     metal_rough_texture: object | None = None
+    anisotropy: float = 0.0                 # KHR_materials_anisotropy's strength factor
+    #: its texture: RG the direction in the tangent frame (2c − 1), B × the strength
+    anisotropy_texture: object | None = None
 
     def params(self, uv) -> np.ndarray:
-        """(N, 5): base colour RGB, metallic, roughness at sgpipe UVs (N, 2)."""
+        """(N, 6): base colour RGB, metallic, roughness, anisotropy strength at sgpipe UVs
+        (N, 2)."""
         n = len(uv)
-        out = np.empty((n, 5))
+        out = np.empty((n, 6))
         out[:, :3] = np.asarray(self.base_color, float)
-        out[:, 3], out[:, 4] = self.metallic, self.roughness
+        out[:, 3], out[:, 4], out[:, 5] = self.metallic, self.roughness, self.anisotropy
+        if self.anisotropy_texture is not None:
+            out[:, 5] *= self.anisotropy_texture.bilinear(uv)[:, 2]
         if self.base_texture is not None:
             out[:, :3] *= self.base_texture.bilinear(uv)[:, :3]
         if self.metal_rough_texture is not None:
@@ -46,6 +52,14 @@ class GltfSurface:
             out[:, 4] *= mr[:, 1]
             out[:, 3] *= mr[:, 2]
         return out
+
+    def direction_angle(self, uv) -> np.ndarray | None:
+        """(N,) the anisotropy texture's direction angle (radians, from the tangent towards the
+        handed bitangent; 0 where the direction is zero), or None without the texture."""
+        if self.anisotropy_texture is None:
+            return None
+        d = 2.0 * self.anisotropy_texture.bilinear(uv)[:, :2] - 1.0
+        return np.where(np.sum(d * d, 1) > 1e-12, np.arctan2(d[:, 1], d[:, 0]), 0.0)
 
 
 @dataclass
@@ -187,7 +201,7 @@ def primary_rows(tracer, camera, px, py, maps=None, backfacing: str = "lift") ->
         uv = np.asarray(gb.uv[idx], np.float64)
         kd = np.ones((len(idx), 3))
         ks = np.ones((len(idx), 3))
-        sv = np.full((len(idx), 5), np.nan)     # glTF textured parameters (NaN: none)
+        sv = np.full((len(idx), 6), np.nan)     # glTF textured parameters (NaN: none)
         scaled = any(m.kd_map is not None or m.ks_map is not None or m.gltf is not None
                      for m in maps)
         for k, m in enumerate(maps):
@@ -219,8 +233,10 @@ def primary_rows(tracer, camera, px, py, maps=None, backfacing: str = "lift") ->
                     scaled = scaled or behind.size > 0
                 view[sel] = mapped_view(view[sel], t[sel], b[sel], n[sel], t2, b2, n2)
                 t[sel], b[sel], n[sel] = t2, b2, n2
-            if m.frame_rotation != 0.0:     # towards w · n × t, as the kernels' pixel_init
-                turn = np.full(sel.size, m.frame_rotation)
+            angle = m.gltf.direction_angle(uv[sel]) if m.gltf is not None else None
+            if m.frame_rotation != 0.0 or angle is not None:
+                # towards w · n × t, as the kernels' pixel_init
+                turn = np.full(sel.size, m.frame_rotation) + (0.0 if angle is None else angle)
                 if hand is not None:
                     turn[hand[sel] < 0] *= -1.0
                 t[sel], b[sel] = turn_frame(t[sel], b[sel], turn)

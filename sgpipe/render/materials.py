@@ -17,8 +17,8 @@ from sgpipe.artifacts import fit as contract
 from sgpipe.artifacts import scalar
 from sgpipe.core.asg import x_angle
 from sgpipe.errors import BadInput
-from sgpipe.render.records import (ANISO, AROT, AU, AV, BASE, BCTEX, DIFFUSE, EMIT, EMTEX, ETA,
-                                   ETAB, ETGRID, F0, FRESNEL, GMM, WARPN,
+from sgpipe.render.records import (ANISO, ANTEX, AROT, AU, AV, BASE, BCTEX, DIFFUSE, EMIT,
+                                   EMTEX, ETA, ETAB, ETGRID, F0, FRESNEL, GMM, WARPN,
                                    GMM_FLAGS, GMM_K, GMM_NP, GMM_NT, GMM_TMAX, GSCALE, K, KD,
                                    KDTEX, KS, KSTEX, LOBE0, MAT_STRIDE, METAL, MRTEX, NLOBES,
                                    ROUGH, SHADOW, STAB, SVA0, SVA1, SVLIN, SVLOB, SVN,
@@ -44,6 +44,9 @@ class GltfFactors:
     base_texture: int = -1
     metal_rough_texture: int = -1
     linear: bool = False    # the textures hold (kd, roughness) and (F0, 0): linear_parameters
+    #: KHR_materials_anisotropy's texture: RG its direction in the tangent frame (2c − 1, from
+    #: t towards the handed bitangent, then turned by the rotation), B × the strength
+    anisotropy_texture: int = -1
 
 
 @dataclass
@@ -240,7 +243,7 @@ def pack_materials(materials: list[Material]) -> MaterialTable:
             n_gmm += len(rows)
             max_k = max(max_k, kl)
         r[KDTEX], r[KSTEX] = m.kd_texture, m.ks_texture
-        r[BCTEX] = r[MRTEX] = r[SVLOB] = r[ETAB] = r[ETGRID] = -1
+        r[BCTEX] = r[MRTEX] = r[SVLOB] = r[ETAB] = r[ETGRID] = r[ANTEX] = -1
         r[WARPN] = float(m.exact_warp)
         r[EMIT:EMIT + 3] = np.asarray(m.emission, float)
         r[EMTEX] = m.emission_texture
@@ -258,6 +261,7 @@ def pack_materials(materials: list[Material]) -> MaterialTable:
             r[BASE:BASE + 3] = g.base_color
             r[METAL], r[ROUGH], r[ANISO] = g.metallic, g.roughness, g.anisotropy
             r[BCTEX], r[MRTEX], r[SVLIN] = g.base_texture, g.metal_rough_texture, g.linear
+            r[ANTEX] = g.anisotropy_texture
             grid = m.rough_grid
             if g.metal_rough_texture >= 0 and grid is not None and g.anisotropy == 0.0:
                 # the roughness grid's lobe sets, each laid out as a material's (its SG

@@ -16,7 +16,7 @@ ENERGY_VIEWS = 32
 ENERGY_COS_MIN = 0.01
 
 #: Floats per material record (kernels: `mats + material * MAT_STRIDE`).
-MAT_STRIDE = 56
+MAT_STRIDE = 57
 
 
 class MaterialSlot(IntEnum):
@@ -70,6 +70,8 @@ class MaterialSlot(IntEnum):
                       # this angle (radians) from the tangent towards the bitangent
     EMIT = 52         # emitted radiance (RGB; gltf_pbr `emissive`)
     EMTEX = 55        # texture index of the emissive texture (−1: none), times EMIT
+    ANTEX = 56        # texture index of KHR_materials_anisotropy's texture (−1: none): RG the
+                      # direction (turns the frame by its angle), B × ANISO the strength
 
 
 # The packers index a record by these names (the `re` module's idiom for enum members).

@@ -321,7 +321,8 @@ class Renderer:
         """Does a material take its parameters from textures per pixel (pixel_init writes
         each such pixel's record into the frame's `pxmat`)?"""
         r = self.materials.records
-        return bool(np.any(r[:, MaterialSlot.BCTEX] >= 0) or np.any(r[:, MaterialSlot.MRTEX] >= 0))
+        return bool(np.any(r[:, [MaterialSlot.BCTEX, MaterialSlot.MRTEX, MaterialSlot.ANTEX]]
+                           >= 0))
 
     def shade(self, method: str, fr: Frame | dict, *, flags: int = 0, fis_samples: int = 40,
               gmm_interpolate: bool = True, mip_coverage: float = 0.9, seed: int = 0):

@@ -145,12 +145,15 @@ def _gltf_factors(found, textures: Textures):
     if found is None:
         return None
     from sgpipe.render.materials import GltfFactors
-    spec, base, mr = found
+    spec, base, mr, aniso = found
     p = spec.params
     g = GltfFactors(np.broadcast_to(np.asarray(p.get("base_color", 1.0), float), (3,)),
                     float(p.get("metallic", 1.0)), float(p.get("roughness", 1.0)),
                     float(p.get("anisotropy", 0.0)))
-    lin = linear_parameters(g, base, mr)
+    if aniso is not None:           # linear data: direction (RG) and strength (B)
+        g.anisotropy_texture = textures.add(aniso.image, mip=True, wrap=aniso.wrap,
+                                            matrix=aniso.matrix)
+    lin = linear_parameters(g, base, mr) if base is not None or mr is not None else None
     if lin is not None:
         (a, b), tex = lin
         g.base_texture = textures.add(a, mip=True, wrap=tex.wrap, matrix=tex.matrix)
@@ -256,19 +259,20 @@ def emission_of(cfg, spec, obj, assets: dict):
 
 def gltf_textures(cfg, obj, assets: dict):
     """The textured glTF material of an object that is one glTF primitive rendered with a
-    `gltf_pbr` material: (its material spec, the glTF material's base-colour and
-    metallic-roughness GltfTextures, either None), or None when the material has neither
-    texture. `assets`: glTF files read so far, by path."""
+    `gltf_pbr` material: (its material spec, the glTF material's base-colour,
+    metallic-roughness and KHR_materials_anisotropy GltfTextures, any of them None), or None
+    when the material has none of them. `assets`: glTF files read so far, by path."""
     found = _gltf_material(cfg, obj, assets)
     if found is None:
         return None
     spec, asset, index = found
-    from sgpipe.io.gltf_textures import material_texture
+    from sgpipe.io.gltf_textures import ANISOTROPY_TEXTURE, material_texture
     base = material_texture(asset, index, "baseColorTexture")
     mr = material_texture(asset, index, "metallicRoughnessTexture")
-    if base is None and mr is None:
+    aniso = material_texture(asset, index, ANISOTROPY_TEXTURE)
+    if base is None and mr is None and aniso is None:
         return None
-    return spec, base, mr
+    return spec, base, mr, aniso
 
 
 def environment_scale(cfg) -> float:

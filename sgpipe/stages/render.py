@@ -252,10 +252,11 @@ def _gltf_surface(cfg, obj, assets: dict):
     found = gltf_textures(cfg, obj, assets)
     if found is None:
         return None
-    spec, base, mr = found
+    spec, base, mr, aniso = found
     p = spec.params
     return GltfSurface(np.broadcast_to(np.asarray(p.get("base_color", 1.0), float), (3,)),
-                       float(p.get("metallic", 1.0)), float(p.get("roughness", 1.0)), base, mr)
+                       float(p.get("metallic", 1.0)), float(p.get("roughness", 1.0)), base, mr,
+                       float(p.get("anisotropy", 0.0)), aniso)
 
 
 def _reference(cfg, bundle, run) -> np.ndarray:

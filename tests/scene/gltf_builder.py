@@ -250,3 +250,26 @@ def halves_quads(folder: Path) -> tuple[Path, dict[str, Path]]:
                                                roughness=np.round(r * 255) / 255),
                                  folder / f"{tag}.glb")
     return tex, uniform
+
+
+def add_anisotropy(doc: g.GLTF2, strength: float, rotation: float = 0.0,
+                   image: np.ndarray | None = None) -> g.GLTF2:
+    """KHR_materials_anisotropy on the document's first material, with `image` (a PNG of
+    (H, W, 3) in [0, 1]: RG direction, B strength) as its anisotropyTexture when given."""
+    ext = {"anisotropyStrength": strength, "anisotropyRotation": rotation}
+    if image is not None:
+        blob = bytearray(doc.binary_blob())
+        blob.extend(b"\0" * (-len(blob) % 4))
+        data = png_bytes(image)
+        doc.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(blob),
+                                            byteLength=len(data)))
+        blob.extend(data)
+        doc.images.append(g.Image(bufferView=len(doc.bufferViews) - 1, mimeType="image/png"))
+        doc.textures.append(g.Texture(source=len(doc.images) - 1, sampler=0))
+        ext["anisotropyTexture"] = {"index": len(doc.textures) - 1}
+        doc.buffers[0].byteLength = len(blob)
+        doc.set_binary_blob(bytes(blob))
+    doc.materials[0].extensions = {**(doc.materials[0].extensions or {}),
+                                   "KHR_materials_anisotropy": ext}
+    doc.extensionsUsed = sorted(set(doc.extensionsUsed or []) | {"KHR_materials_anisotropy"})
+    return doc

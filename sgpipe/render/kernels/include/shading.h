@@ -258,7 +258,8 @@ typedef struct {
  * analytic at the pixel's α (ndf_exact) instead of the material's table. */
 inline void gltf_pixel_record(__global const float *m, __global float *r,
                               __global const float4 *texels, __global const int4 *texinfo,
-                              __global const float4 *texaff, float2 uv, float4 duv) {
+                              __global const float4 *texaff, float2 uv, float4 duv,
+                              float aniso_scale) {
     for (int k = 0; k < MAT_STRIDE; ++k) r[k] = m[k];
     float3 c = mat3(m, MAT_BASE);
     float metal = m[MAT_METAL], rough = m[MAT_ROUGH];
@@ -281,7 +282,7 @@ inline void gltf_pixel_record(__global const float *m, __global float *r,
         f0 = mix((float3)(0.04f), c, metal);
     }
     float rr = fmax(clamp(rough, 0.0f, 1.0f), 0.06f);
-    float av = rr * rr, s = m[MAT_ANISO];
+    float av = rr * rr, s = clamp(m[MAT_ANISO] * aniso_scale, 0.0f, 1.0f);
     float au = av + (1.0f - av) * s * s;
     r[MAT_KD] = kd.x; r[MAT_KD + 1] = kd.y; r[MAT_KD + 2] = kd.z;
     r[MAT_F0] = f0.x; r[MAT_F0 + 1] = f0.y; r[MAT_F0 + 2] = f0.z;
@@ -320,9 +321,14 @@ inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const flo
     p.m = mats + OBJ_MAT(p.ob) * MAT_STRIDE;
     p.uv = guv[gid];
     float4 duv = gduv[gid];
-    if (p.m[MAT_BCTEX] >= 0.0f || p.m[MAT_MRTEX] >= 0.0f) {
+    /* KHR_materials_anisotropy's texture, footprint-filtered: its direction (RG) turns the
+     * BRDF frame (below), its strength (B) scales the factor's in the pixel's record */
+    int at = (int)p.m[MAT_ANTEX];
+    float4 ac = at >= 0 ? tex_filtered(texels, texinfo[at], texaff, at, p.uv, duv)
+                        : (float4)(1.0f, 0.5f, 1.0f, 0.0f);
+    if (p.m[MAT_BCTEX] >= 0.0f || p.m[MAT_MRTEX] >= 0.0f || at >= 0) {
         __global float *r = pxmat + gid * MAT_STRIDE;
-        gltf_pixel_record(p.m, r, texels, texinfo, texaff, p.uv, duv);
+        gltf_pixel_record(p.m, r, texels, texinfo, texaff, p.uv, duv, ac.z);
         p.m = r;
     }
     p.kd = mat3(p.m, MAT_KD);
@@ -345,6 +351,10 @@ inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const flo
      * from the tangent towards the bitangent of the tangent's handedness (glTF's bitangent
      * is w · n × t) */
     float rot = p.m[MAT_AROT];
+    if (at >= 0) {
+        float2 d = 2.0f * ac.xy - 1.0f;
+        if (dot(d, d) > 1e-12f) rot += atan2(d.y, d.x);
+    }
     if (rot != 0.0f) {
         float h = 0.5f * (gtan[gid].w < 0.0f ? -rot : rot);
         p.q = quat_mul(p.q, (float4)(0.0f, 0.0f, sin(h), cos(h)));
