@@ -1,4 +1,4 @@
-"""`sg`'s clipped lobes (core.fh_clip, shading.h sg_clip_visible) against quadrature of the exact
+"""`sg`'s clipped lobes (core.fh_clip, clip.h sg_clip_visible) against quadrature of the exact
 BRDF: rough GGX on a plane under a linear environment whose light comes mostly from below the
 plane's horizon (L = 1 − z) or from above it (L = 1 + z). Eq 31's lobes (`sg_wang09` with every
 improvement but `clip`) read the light behind the horizon; the clipped ones far less."""

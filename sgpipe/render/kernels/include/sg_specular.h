@@ -1,11 +1,13 @@
 /* Wang09 §7's specular side shared by `sg` and `transport`: the BRDF slice ρ*_s as warped,
  * cosine-weighted sub-lobes of the material's NDF lobes (or ASG lobes), through the SSDF
- * visibility (eq 31) and the Γ_L chain (eq 35), and the local lights (eq 43).
- * Defines: SPEC_SUBLOBES (3, or 1 = Wang09's isotropic warp), MAX_NDF_LOBES, W09_NO_ASG and
- * W09_CSTAR_SPEC (sg_wang09's switches, sg_shade.cl). Needs sg.h, asg.h, ssdf.h, cubemap.h,
- * microfacet.h and shading.h first. */
+ * visibility (eq 31, or the clipped lobes of clip.h) and the Γ_L chain (eq 35), and the local
+ * lights (eq 43). Defines: SPEC_SUBLOBES (3, or 1 = Wang09's isotropic warp), MAX_NDF_LOBES,
+ * W09_NO_ASG, W09_CSTAR_SPEC and W09_NO_CLIP (sg_wang09's switches, sg_shade.cl). Needs sg.h,
+ * asg.h, ssdf.h, cubemap.h, microfacet.h and shading.h first. */
 #ifndef SGPIPE_SG_SPECULAR_H
 #define SGPIPE_SG_SPECULAR_H
+
+#include "clip.h"
 
 #define SHARP_CACHE 4       /* sharp lights whose irradiance is computed once per pixel */
 #ifndef SPEC_SUBLOBES
