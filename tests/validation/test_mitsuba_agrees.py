@@ -72,30 +72,56 @@ def test_sphere_shading_frame_is_sgpipes(mi):
     np.testing.assert_allclose(_np(si.sh_frame.t), b, atol=1e-4)
 
 
+def _eval_at_random_directions(mi, bsdf_dict, seed: int, n: int = 2000):
+    """(wi, wo, Mitsuba's bsdf.eval (n, 3)) of a BSDF dict at n random upper-hemisphere
+    direction pairs in the frame (x, y, z)."""
+    import drjit as dr
+    bsdf = mi.load_dict(bsdf_dict)
+    rng = np.random.default_rng(seed)
+
+    def hemi(k):
+        v = rng.normal(size=(k, 3))
+        v[:, 2] = np.abs(v[:, 2]) + 0.05
+        return v / np.linalg.norm(v, axis=1, keepdims=True)
+    wi, wo = hemi(n), hemi(n)
+    si = dr.zeros(mi.SurfaceInteraction3f, len(wi))
+    si.sh_frame = mi.Frame3f(mi.Vector3f(1, 0, 0), mi.Vector3f(0, 1, 0), mi.Vector3f(0, 0, 1))
+    si.n = mi.Normal3f(0, 0, 1)
+    si.wi = mi.Vector3f(*wi.T.astype(np.float32))
+    return wi, wo, _np(bsdf.eval(mi.BSDFContext(), si, mi.Vector3f(*wo.T.astype(np.float32))))
+
+
 @pytest.mark.parametrize("model,params", [
     ("lambert", {"kd": [0.5, 0.3, 0.2]}),
     ("beckmann", {"alpha_u": 0.05, "alpha_v": 0.3, "ks": 0.8, "kd": 0.1, "fresnel": "none"}),
     ("ggx", {"alpha_u": 0.3, "alpha_v": 0.06, "ks": 1.0, "fresnel": "conductor",
              "eta": [0.143, 0.375, 1.442], "k": [3.983, 2.386, 1.603]})])
 def test_mitsuba_bsdf_is_the_sgpipe_brdf(mi, model, params):
-    import drjit as dr
     brdf = make_brdf(model, params)
-    bsdf = mi.load_dict(cv.bsdf_dict(brdf))
-    rng = np.random.default_rng(2)
-
-    def hemi(k):
-        v = rng.normal(size=(k, 3))
-        v[:, 2] = np.abs(v[:, 2]) + 0.05
-        return v / np.linalg.norm(v, axis=1, keepdims=True)
-    wi, wo = hemi(2000), hemi(2000)
-    si = dr.zeros(mi.SurfaceInteraction3f, len(wi))
-    si.sh_frame = mi.Frame3f(mi.Vector3f(1, 0, 0), mi.Vector3f(0, 1, 0), mi.Vector3f(0, 0, 1))
-    si.n = mi.Normal3f(0, 0, 1)
-    si.wi = mi.Vector3f(*wi.T.astype(np.float32))
-    got = _np(bsdf.eval(mi.BSDFContext(), si, mi.Vector3f(*wo.T.astype(np.float32))))
+    wi, wo, got = _eval_at_random_directions(mi, cv.bsdf_dict(brdf), 2)
     want = brdf.eval(wi, wo) * wo[:, 2:3]
     rtol = 1e-2 if model == "beckmann" else 2e-3     # Beckmann G1: Mitsuba's rational fit
     np.testing.assert_allclose(got, want, rtol=rtol, atol=1e-4 * want.max())
+
+
+def test_mitsuba_roughconductor_is_the_gltf_brdf_up_to_the_smith_term(mi):
+    """validation.gltf's white metal: Mitsuba's BSDF × G2_correlated / (G1 G1) = sgpipe's
+    gltf_pbr at random directions: the height-correlated term is the mapping's one
+    difference."""
+    from sgpipe.brdf.shadowing import smith_g1_ggx, smith_g2_ggx_correlated
+    from sgpipe.config.sections.fit import MaterialSpec
+    from validation.gltf import gltf_bsdf_dict
+    params = {"base_color": [1.0, 1.0, 1.0], "metallic": 1.0, "roughness": 0.55,
+              "anisotropy": 0.0}
+    brdf = make_brdf("gltf_pbr", params)
+    spec = MaterialSpec(name="m", model="gltf_pbr", params=params)
+    wi, wo, got = _eval_at_random_directions(mi, gltf_bsdf_dict(spec, None), 4)
+    a = 0.55 ** 2
+    ratio = smith_g2_ggx_correlated(wi, wo, a, a) / (smith_g1_ggx(wi, a, a)
+                                                      * smith_g1_ggx(wo, a, a))
+    want = brdf.eval(wi, wo) * wo[:, 2:3]
+    np.testing.assert_allclose(got * ratio[:, None], want, rtol=2e-3, atol=1e-4 * want.max())
+    assert np.abs(got - want).max() > 1e-3 * want.max()      # the term is not nothing
 
 
 def test_tiny_scene_both_renderers_agree(mi):
