@@ -25,6 +25,8 @@ VIEW_GMM = "view_gmm.npz"
 VIEW_GMM_TEXTURE = "view_gmm.exr"
 #: Töral19's mixtures as published (`gmm_toral19`): 8 lobes, independent views, specular part
 VIEW_GMM_TORAL19 = "view_gmm_toral19.npz"
+#: isotropic gltf_pbr: the specular mixtures per roughness with Schlick F0 as a linear basis
+VIEW_GMM_ROUGH = "view_gmm_rough.npz"
 TABULATED = "tabulated.npz"
 REPORT = "report.json"
 ERROR_PLOT = "error_vs_lobes.png"
@@ -43,6 +45,9 @@ NDF_SG_ROUGH_ARRAYS = {"alpha": f32, "sharpness": f32, "amplitude": f32, "rel_l2
 VIEW_GMM_ARRAYS = {"view_theta": f32, "view_phi": f32, "view_dirs": f32, "alpha": f32,
                    "kappa": f32, "mu": f32, "mu_theta": f32, "mu_phi": f32, "albedo": f32,
                    "rel_l2": f32, "includes_diffuse": i32, "coherent": i32}
+VIEW_GMM_ROUGH_ARRAYS = {"roughness": f32, "view_theta": f32, "view_phi": f32, "alpha": f32,
+                         "kappa": f32, "mu_theta": f32, "mu_phi": f32, "rel_l2": f32,
+                         "coherent": i32}
 TABULATED_ARRAYS = {"ndf_theta_h": f32, "ndf_table": f32, "shadow_table": f32,
                     "shadow_pca_mean": f32, "shadow_pca_basis": f32, "shadow_pca_coeffs": f32,
                     "eta": f32}
@@ -109,6 +114,15 @@ def write_view_gmm_toral19(sink, material: str, arrays: dict) -> None:
     a = {k: np.asarray(v) for k, v in arrays.items()}
     sink.write_npz(material_file(material, VIEW_GMM_TORAL19),
                    cast(a, VIEW_GMM_ARRAYS, VIEW_GMM_TORAL19))
+
+
+def write_view_gmm_rough(sink, material: str, arrays: dict) -> None:
+    """`view_gmm_rough.npz`: roughness (R,) and per entry the arrays of `view_gmm.npz` (alpha
+    (R, J, K, 3) in the F0 basis of fit.view_gmm_rough, kappa / mu_theta / mu_phi (R, J, K),
+    rel_l2 (R, J))."""
+    a = {k: np.asarray(v) for k, v in arrays.items()}
+    sink.write_npz(material_file(material, VIEW_GMM_ROUGH),
+                   cast(a, VIEW_GMM_ROUGH_ARRAYS, VIEW_GMM_ROUGH))
 
 
 def write_view_gmm(sink, material: str, arrays: dict, *, view_theta_max: float) -> None:
@@ -274,6 +288,25 @@ def read_view_gmm(folder: str | Path, material: str, *, name: str = VIEW_GMM) ->
     shaped(z["alpha"], (j, k, 3), "alpha", path, key)
     for name in ("kappa", "mu_theta", "mu_phi"):
         shaped(z[name], (j, k), name, path, key)
+    return z
+
+
+def read_view_gmm_rough(folder: str | Path, material: str) -> dict | None:
+    """`view_gmm_rough.npz` of one material, or None where the fit wrote none; shapes checked:
+    roughness (R,) positive and increasing, alpha (R, J, K, 3), kappa / mu_* (R, J, K)."""
+    path = Path(folder) / VIEW_GMM_ROUGH
+    if not path.is_file():
+        return None
+    key = _key(material)
+    z = read_npz(path, key=key, required=tuple(VIEW_GMM_ROUGH_ARRAYS))
+    r = shaped(z["roughness"], (-1,), "roughness", path, key)
+    j = np.size(z["view_theta"]) * np.size(z["view_phi"])
+    k = np.shape(z["alpha"])[2] if np.ndim(z["alpha"]) == 4 else -1
+    shaped(z["alpha"], (len(r), j, k, 3), "alpha", path, key)
+    for name in ("kappa", "mu_theta", "mu_phi"):
+        shaped(z[name], (len(r), j, k), name, path, key)
+    if not (len(r) >= 1 and np.all(r > 0) and np.all(np.diff(r) > 0)):
+        raise BadInput("roughness is not positive and increasing", file=path, key=key)
     return z
 
 

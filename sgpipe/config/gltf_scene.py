@@ -28,9 +28,9 @@ def _unique(name: str, taken: set[str], tag: str) -> str:
     return out
 
 
-#: which methods read which glTF textures: the per-pixel parameters only the reference, sg and
-#: fis (the others render the material's factors); the normal and emissive textures every
-#: method that renders `gltf_pbr`
+#: which methods read which glTF textures: the per-pixel parameters the reference, sg, fis and
+#: gmm (gmm: isotropic materials; the others render the material's factors); the normal and
+#: emissive textures every method that renders `gltf_pbr`
 PER_PIXEL_TEXTURES = ("baseColorTexture", "metallicRoughnessTexture")
 EVERY_METHOD_TEXTURES = ("normalTexture", "emissiveTexture")
 #: KHR_materials_anisotropy's texture: its direction every method that turns the BRDF frame,
@@ -46,7 +46,7 @@ def _texture_note(textures: list[str]) -> str:
     unread = [t for t in textures
               if t not in PER_PIXEL_TEXTURES + EVERY_METHOD_TEXTURES + (ANISOTROPY_TEXTURE,)]
     if per_pixel:
-        parts.append(f"reference, sg and fis read its {' and '.join(per_pixel)}, the other "
+        parts.append(f"reference, sg, fis and gmm read its {' and '.join(per_pixel)}, the other "
                      "methods its factors")
     if every:
         parts.append(f"every method reads its {' and '.join(every)}")

@@ -15,11 +15,13 @@ import numpy as np
 
 from sgpipe.artifacts import fit as contract
 from sgpipe.artifacts import scalar
+from sgpipe.brdf.models import GLTF_MIN_ROUGHNESS
 from sgpipe.core.asg import x_angle
 from sgpipe.errors import BadInput
 from sgpipe.render.records import (ANISO, ANTEX, AROT, AU, AV, BASE, BCTEX, DIFFUSE, EMIT,
-                                   EMTEX, ETA, ETAB, ETGRID, F0, FRESNEL, GMM, WARPN,
-                                   GMM_FLAGS, GMM_K, GMM_NP, GMM_NT, GMM_TMAX, GSCALE, K, KD,
+                                   EMTEX, ETA, ETAB, ETGRID, F0, FRESNEL, GMM, GMR, GMR_A0,
+                                   GMR_A1, GMR_N, WARPN, GMM_FLAGS, GMM_K, GMM_NP, GMM_NT,
+                                   GMM_TMAX, GSCALE, K, KD,
                                    KDTEX, KS, KSTEX, LOBE0, MAT_STRIDE, METAL, MRTEX, NLOBES,
                                    ROUGH, SHADOW, STAB, SVA0, SVA1, SVLIN, SVLOB, SVN,
                                    SVSTEP)
@@ -78,6 +80,7 @@ class Material:
     asg_amp: np.ndarray = field(default_factory=lambda: np.zeros(0))
     gmm: dict | None = None          # view_gmm.npz arrays
     gmm_toral19: dict | None = None  # view_gmm_toral19.npz arrays (Töral19's published fit)
+    gmm_rough: dict | None = None    # view_gmm_rough.npz arrays (gmm's per-pixel mixtures)
     ndf_table: np.ndarray | None = None  # (nt, np) exact D on the (t, φ) grid (fis)
     kd_texture: int = -1
     ks_texture: int = -1
@@ -122,6 +125,8 @@ class Material:
         if asg is not None:
             m.set_asg(asg.z, asg.x, asg.sharpness_x, asg.sharpness_y, asg.amplitude)
         m.rough_grid = contract.read_ndf_sg_rough(folder, name)
+        if need_gmm:
+            m.gmm_rough = contract.read_view_gmm_rough(folder, name)
         return m
 
     def set_asg(self, z, x, lam, mu, amp) -> None:
@@ -197,6 +202,25 @@ def _gmm_block(g: dict):
     return (len(th), len(ph), Kl, float(th[-1]) if len(th) else 0.0, flags), rows.reshape(-1, 4)
 
 
+def _gmm_rough_blocks(g: dict, gmm: dict | None):
+    """view_gmm_rough arrays → (entries, α first, α last, float4 rows): each entry's block as
+    _gmm_block lays out view_gmm's, entry after entry; None unless the material's own view_gmm
+    has the same views and lobe count (the kernel reads both with its header)."""
+    rough = np.asarray(g["roughness"], float)
+    if gmm is None or np.shape(gmm["alpha"])[1:] != np.shape(g["alpha"])[2:] \
+            or np.size(gmm["view_theta"]) != np.size(g["view_theta"]) \
+            or np.size(gmm["view_phi"]) != np.size(g["view_phi"]):
+        return None
+    rows = []
+    for e in range(len(rough)):
+        one = {k: g[k][e] for k in ("alpha", "kappa", "mu_theta", "mu_phi")}
+        one.update(view_theta=g["view_theta"], view_phi=g["view_phi"],
+                   coherent=g["coherent"], includes_diffuse=0)
+        rows.append(_gmm_block(one)[1])
+    a = np.maximum(rough, GLTF_MIN_ROUGHNESS) ** 2
+    return len(rough), float(a[0]), float(a[-1]), np.concatenate(rows)
+
+
 def pack_materials(materials: list[Material]) -> MaterialTable:
     """Pack materials in list order (index = material id used by object records)."""
     recs = np.zeros((max(len(materials), 1), MAT_STRIDE), np.float32)
@@ -244,6 +268,16 @@ def pack_materials(materials: list[Material]) -> MaterialTable:
             max_k = max(max_k, kl)
         r[KDTEX], r[KSTEX] = m.kd_texture, m.ks_texture
         r[BCTEX] = r[MRTEX] = r[SVLOB] = r[ETAB] = r[ETGRID] = r[ANTEX] = -1
+        r[GMR] = -1
+        g = m.gltf
+        blocks = (_gmm_rough_blocks(m.gmm_rough, m.gmm) if m.gmm_rough is not None
+                  and g is not None and g.anisotropy == 0.0
+                  and (g.base_texture >= 0 or g.metal_rough_texture >= 0) else None)
+        if blocks is not None:
+            r[GMR_N], r[GMR_A0], r[GMR_A1], rows = blocks
+            r[GMR] = n_gmm
+            gmm.append(rows)
+            n_gmm += len(rows)
         r[WARPN] = float(m.exact_warp)
         r[EMIT:EMIT + 3] = np.asarray(m.emission, float)
         r[EMTEX] = m.emission_texture

@@ -16,7 +16,7 @@ ENERGY_VIEWS = 32
 ENERGY_COS_MIN = 0.01
 
 #: Floats per material record (kernels: `mats + material * MAT_STRIDE`).
-MAT_STRIDE = 57
+MAT_STRIDE = 61
 
 
 class MaterialSlot(IntEnum):
@@ -72,6 +72,12 @@ class MaterialSlot(IntEnum):
     EMTEX = 55        # texture index of the emissive texture (−1: none), times EMIT
     ANTEX = 56        # texture index of KHR_materials_anisotropy's texture (−1: none): RG the
                       # direction (turns the frame by its angle), B × ANISO the strength
+    # gmm's per-pixel mixtures of a textured isotropic gltf_pbr (view_gmm_rough.npz): entries
+    # laid out as the GMM block (same θ / φ views and lobes), amplitudes in the F0 basis
+    GMR = 57          # first row of the roughness entries' view-GMM blocks (−1: none)
+    GMR_N = 58        # entries (uniform in ln α from GMR_A0 to GMR_A1)
+    GMR_A0 = 59       # α of the first entry
+    GMR_A1 = 60       # α of the last entry
 
 
 # The packers index a record by these names (the `re` module's idiom for enum members).

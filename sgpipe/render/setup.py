@@ -81,7 +81,8 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
             raise BadInput(f"material {name!r} is not defined in fit.materials",
                            key="render.material_textures")
     names, mats = [], []
-    # gmm_toral19 reads Töral19's published per-view fit unless `fit` is given back
+    # gmm_toral19 reads Töral19's published per-view fit (one material's mixtures, no
+    # per-pixel ones) unless `fit` is given back
     published_gmm = toral19 and "fit" not in rs.gmm_toral19_adds
     assets: dict = {}           # glTF files, read once for all their primitives' objects
     for o, spec in zip(cfg.scene.objects, specs):
@@ -128,7 +129,7 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
                         **{f"{m}_adds": tuple(getattr(rs, f"{m}_adds"))
                            for m in PUBLISHED_SWITCHES},
                         materials_toral19=pack_materials(
-                            [replace(m, gmm=m.gmm_toral19) for m in mats])
+                            [replace(m, gmm=m.gmm_toral19, gmm_rough=None) for m in mats])
                         if published_gmm else None)
     if any(x.needs_transport for x in methods):
         from sgpipe.render.transport_data import attach_transport

@@ -184,6 +184,22 @@ def write_view_gmm_toral19(run, name: str, brdf, spec, kw: dict, gmm) -> float:
     return float(gmm.rel_l2.max())
 
 
+def write_view_gmm_rough(run, name: str, brdf, spec, kw: dict) -> dict:
+    """view_gmm_rough.npz of an isotropic gltf_pbr material (its roughness, metalness and
+    colour may come from textures: gmm's per-pixel mixtures) and its part of the report."""
+    from sgpipe.fit.view_gmm_rough import fit_rough_view_gmm
+    t0 = time.perf_counter()
+    grid = fit_rough_view_gmm(float(brdf.params.get("roughness", 1.0)), spec.roughness_entries,
+                              **{**kw, "coherent": spec.coherent})
+    arrays = grid.arrays()
+    artifacts.write_view_gmm_rough(run, name, arrays)
+    run.timings[f"{name}.view_gmm_rough_s"] = time.perf_counter() - t0
+    return {"entries": len(grid.roughness), "roughness": grid.roughness,
+            "max_rel_l2": float(np.max(arrays["rel_l2"])),
+            "bytes": int(sum(np.asarray(arrays[k], np.float32).nbytes
+                             for k in ("alpha", "kappa", "mu_theta", "mu_phi")))}
+
+
 def write_view_gmm(run, name: str, brdf, spec, seed: int, ndf_rep: dict) -> dict:
     """view_gmm.npz + view_gmm.exr, error curve and slice previews, interpolation errors."""
     include_diffuse = spec.component == "full" or not brdf.has_specular
@@ -202,6 +218,8 @@ def write_view_gmm(run, name: str, brdf, spec, seed: int, ndf_rep: dict) -> dict
            "view_theta_deg": th_deg, "rel_l2_per_theta": per_view,
            "max_rel_l2": float(gmm.rel_l2.max()),
            "max_rel_l2_theta_le_60": float(per_view[th_deg <= 60.0 + 1e-9].max(initial=0.0))}
+    if spec.roughness_entries and getattr(brdf, "name", None) == "gltf_pbr" and brdf.isotropic:
+        rep["roughness_grid"] = write_view_gmm_rough(run, name, brdf, spec, kw)
     if toral19_requested(run.cfg):
         rep["toral19_max_rel_l2"] = write_view_gmm_toral19(run, name, brdf, spec, kw, gmm)
     thetas = np.radians(spec.report_views_deg)

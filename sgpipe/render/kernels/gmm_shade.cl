@@ -9,6 +9,8 @@
  * gmm_mip holds the map without it (else gmm_mip = the whole map).
  * Diffuse not inside the lobes (includes_diffuse = 0), and purely diffuse materials, use the SG
  * light fit (Wang09 eq 39); local lights use the mixture itself: ρ cos ≈ Σ α vMF(l) times the irradiance.
+ * A textured glTF material renders per pixel from the mixtures fitted at a grid of roughness
+ * values with Schlick's F0 as a linear basis (view_gmm_rough; MAT_GMR*).
  * The chain is the cubemap box chain, or with GMM_DP Töral19's dual-paraboloid chain (eq 11;
  * `gmm_toral19`). gmm_mip, gmm_mip_off, gmm_mip_res, gmm_mip_n describe the chain read.
  * Defines: NV, FH_*, MAX_GMM_LOBES; optional GMM_TAPS, GMM_TAP_C, GMM_ROTATE, GMM_VIEW_BLEND,
@@ -47,6 +49,13 @@
 /* 1: the MIP chain is a dual paraboloid of scale gmm_dp_b (Töral19 eq 9–11), else a cube. */
 #ifndef GMM_DP
 #define GMM_DP 0
+#endif
+/* 1: a roughness entry's lobes are stretched to the pixel's α before the entries' radiance is
+ * blended (GGX at α is GGX at α_e with slopes scaled by s = α/α_e: each lobe's offset from the
+ * mirror direction scaled by s, its κ by 1/s²), so entries a few ln-α steps apart still blend
+ * lobes of the pixel's width (0: the entries as fitted). */
+#ifndef GMR_WARP
+#define GMR_WARP 1
 #endif
 /* With baseline shadows each point of the set (a sun, lamp texels) is shadowed at its own
  * direction, decoded once per pixel for at most GMM_VIS_POINTS points (the point set's default
@@ -192,6 +201,33 @@ __kernel void gmm_shade(GMM_SHADE_ARGS)
      * MIP lookup can resolve: it takes the irradiance form (SG light fit) like the diffuse part
      * of every other material. */
     if (with_diffuse_lobes && (int)m[MAT_NLOBES] == 0) { base = -1; with_diffuse_lobes = 0; }
+    /* A textured isotropic gltf_pbr (m is the pixel's record, MAT_SV = 1) with mixtures per
+     * roughness (view_gmm_rough): the two entries around the pixel's α, their radiance blended
+     * linearly in ln α, each lobe's amplitude a0 + F0 (a1 − a0) from the pixel's F0 (the
+     * specular slice is linear in Schlick's F0); the diffuse outside the lobes. */
+    int n_ent = 1, ebase[2] = {base, base};
+    float ew[2] = {1.0f, 0.0f}, ewarp[2] = {1.0f, 1.0f};
+    int grid = base >= 0 && m[MAT_SV] > 0.5f && m[MAT_GMR] >= 0.0f;
+    float3 f0 = mat3(m, MAT_F0);
+    if (grid) {
+        int ne = (int)m[MAT_GMR_N];
+        int rows = 2 * (int)m[MAT_GMM_NT] * (int)m[MAT_GMM_NP] * (int)m[MAT_GMM_K];
+        float g = ne > 1 ? (log(m[MAT_AV]) - log(m[MAT_GMR_A0]))
+                           / (log(m[MAT_GMR_A1]) - log(m[MAT_GMR_A0])) * (float)(ne - 1) : 0.0f;
+        g = clamp(g, 0.0f, (float)(ne - 1));
+        int e0 = min((int)floor(g), max(ne - 2, 0));
+        float fe = g - (float)e0;
+        ebase[0] = (int)m[MAT_GMR] + e0 * rows;
+        ebase[1] = ebase[0] + rows;
+        ew[0] = 1.0f - fe; ew[1] = fe;
+        float step = ne > 1 ? (log(m[MAT_GMR_A1]) - log(m[MAT_GMR_A0])) / (float)(ne - 1) : 0.0f;
+        float la = log(m[MAT_AV]) - log(m[MAT_GMR_A0]);
+        ewarp[0] = exp(la - (float)e0 * step);
+        ewarp[1] = exp(la - (float)(e0 + 1) * step);
+        n_ent = fe > 0.0f ? 2 : 1;
+        gflags &= VIEW_GMM_COHERENT;
+        with_diffuse_lobes = 0;
+    }
     /* The point set's visibility, once per pixel for every lobe (the first GMM_VIS_POINTS
      * points; any further ones take their lobe's f̂_h as the MIP chain does). */
     float pvis[GMM_VIS_POINTS];
@@ -224,9 +260,11 @@ __kernel void gmm_shade(GMM_SHADE_ARGS)
         float w[4] = {(1 - ft) * (1 - fp), ft * (1 - fp), (1 - ft) * fp, ft * fp};
         int tt[4] = {t0, t1, t0, t1}, pp[4] = {p0, p0, p1, p1};
         float3 mpix = (float3)(-op.x, -op.y, op.z);
-        float3 scale = with_diffuse_lobes ? kd_ratio : ks_ratio;
+        float3 scale = grid ? (float3)(1.0f) : with_diffuse_lobes ? kd_ratio : ks_ratio;
         int n_pass = coherent ? 1 : 4;
+        for (int e = 0; e < n_ent; ++e)
         for (int pass = 0; pass < n_pass; ++pass) {
+            base = ebase[e];
             if (!coherent && w[pass] <= 0.0f) continue;
             for (int k = 0; k < K; ++k) {
                 float3 alpha = (float3)(0.0f), axis = (float3)(0.0f);
@@ -236,6 +274,16 @@ __kernel void gmm_shade(GMM_SHADE_ARGS)
                     float phv = np > 1 ? 2.0f * 3.14159265358979f * (float)pp[c] / (float)np : ph;
                     float3 a, ax; float kp;
                     gmm_lobe(gmm, base, np, K, tt[c], pp[c], k, phv, &a, &kp, &ax);
+#if GMR_WARP
+                    if (grid) {        /* the entry's lobes stretched to the pixel's α */
+                        float s = clamp(ewarp[e], 0.25f, 4.0f);
+                        float tv0 = m[MAT_GMM_TMAX] * (float)tt[c] / (float)max(nt - 1, 1);
+                        float3 mg = (float3)(-sin(tv0) * cos(phv), -sin(tv0) * sin(phv),
+                                             cos(tv0));
+                        ax = normalize(mg + s * (ax - mg));
+                        kp /= s * s;
+                    }
+#endif
 #if GMM_ROTATE == 2
                     float tv = m[MAT_GMM_TMAX] * (float)tt[c] / (float)max(nt - 1, 1);
                     float3 og = (float3)(sin(tv) * cos(phv), sin(tv) * sin(phv), cos(tv));
@@ -248,6 +296,7 @@ __kernel void gmm_shade(GMM_SHADE_ARGS)
                     alpha += w[c] * a; kappa += w[c] * kp; axis += w[c] * ax; wsum += w[c];
                 }
                 kappa /= fmax(wsum, 1e-12f);       /* alpha keeps the pass weight */
+                if (grid) alpha = ew[e] * (alpha.x + f0 * (alpha.y - alpha.x));
                 if (kappa <= 0.0f || dot(axis, axis) < 1e-12f) continue;
                 axis = normalize(axis);
                 float3 ag = quat_rotate(q, axis);
