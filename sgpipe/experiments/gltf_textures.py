@@ -3,9 +3,11 @@ textured_ball.glb: base colour, roughness 0.05–0.8, sharp metal bands, a norma
 round bumps) and a plane seen at 50° from its normal carrying the same textures, the base-colour
 and metallic-roughness textures minified k = 1, 2, 4, 8 and 16 times (KHR_texture_transform
 scale k, samplers repeating: k² times the texels under each pixel),
-rendered under the studio map by `sg` and `fis` (per-pixel parameters from the MIP-filtered
-textures) and by the Monte Carlo `reference` (the unfiltered textures at each sample's hit);
-and, as a control, a sphere in uniform metal and dielectric materials of roughness 0.1–0.9.
+rendered under the studio map by `sg`, `fis` and `gmm` (per-pixel parameters from the
+MIP-filtered textures) and by the Monte Carlo `reference` (the unfiltered textures at each
+sample's hit); the asset without its normal texture (`smooth`: the textured parameters alone);
+as a control, a sphere in uniform metal and dielectric materials of roughness 0.1–0.9; and gmm's
+error, fit time and storage against its count of roughness entries (fit.view_gmm_rough).
 
     python -m sgpipe.experiments.gltf_textures --out out/figures/gltf_textures \\
         --results docs/results/gltf_textures.md
@@ -36,11 +38,17 @@ UNIFORM_METALLIC = (1.0, 0.0)
 UNIFORM_ROUGHNESS = (0.1, 0.3, 0.5, 0.7, 0.9)
 UNIFORM_BASE = (0.9, 0.6, 0.3)
 MINIFICATIONS = (1, 2, 4, 8, 16)
-METHODS = ("sg", "fis")
+METHODS = ("sg", "fis", "gmm")
 GOAL_DB = 33.0
+#: gmm on the textured subjects within this of its mean on the uniform controls of the
+#: textures' roughness range (UNIFORM_ROUGHNESS up to the asset's 0.8)
+GMM_GOAL_DB = 1.0
+TEXTURE_ROUGHNESS_MAX = 0.8
+#: gmm's roughness entries (fit.view_gmm.roughness_entries) measured on `smooth` 1×
+ENTRY_COUNTS = (1, 2, 4, 8, 16, 32)
 CAMERAS = {"ball": "{eye: [0, 0.8, 3.6], target: [0, 0, 0], fov_deg: 36",
            "plane": "{eye: [0, 2.3, 1.93], target: [0, 0, 0], fov_deg: 50"}
-CAMERAS["uniform"] = CAMERAS["ball"]
+CAMERAS["uniform"] = CAMERAS["smooth"] = CAMERAS["ball"]
 
 
 def _plane(doc) -> None:
@@ -81,6 +89,8 @@ def write_variant(subject: str, k: int, path: Path) -> Path:
     doc = g.GLTF2().load(str(ASSET))
     if subject == "plane":
         _plane(doc)
+    if subject == "smooth":
+        doc.materials[0].normalTexture = None
     pbr = doc.materials[0].pbrMetallicRoughness
     for info in (pbr.baseColorTexture, pbr.metallicRoughnessTexture):
         info.extensions = {"KHR_texture_transform": {"scale": [float(k), float(k)]}}
@@ -93,14 +103,21 @@ def write_variant(subject: str, k: int, path: Path) -> Path:
 
 
 def _config(glb: Path | None, subject: str, size: int, spp: int, seed: int, methods,
-            uniform: tuple[float, float] | None = None, scale: int = 1) -> str:
+            uniform: tuple[float, float] | None = None, scale: int = 1,
+            entries: int | None = None) -> str:
     """One run's config: the glTF file, or (uniform = (metallic, roughness)) the unit sphere in
-    a uniform gltf_pbr material of the asset's mean paint colour."""
+    a uniform gltf_pbr material of the asset's mean paint colour; gmm's fit with `entries`
+    roughness entries (None: the default)."""
+    if "gmm" in methods:
+        extra = "" if entries is None else f", roughness_entries: {entries}"
+        gmm = f"view_gmm: {{report_lobes: 0, holdout: false{extra}}}"
+    else:
+        gmm = "view_gmm: {enabled: false}"
     if uniform is None:
-        scene = f"scene: {{gltf: [{{file: {glb}}}]}}\nfit: {{view_gmm: {{enabled: false}}}}"
+        scene = f"scene: {{gltf: [{{file: {glb}}}]}}\nfit: {{{gmm}}}"
     else:
         scene = (f"scene: {{objects: [{{name: ball, mesh: {SPHERE}, material: paint}}]}}\n"
-                 f"fit:\n  view_gmm: {{enabled: false}}\n  materials: [{{name: paint, "
+                 f"fit:\n  {gmm}\n  materials: [{{name: paint, "
                  f"model: gltf_pbr, params: {{base_color: {list(UNIFORM_BASE)}, metallic: "
                  f"{uniform[0]}, roughness: {uniform[1]}}}}}]")
     return f"""name: gltf_textures
@@ -152,7 +169,7 @@ def measure(subject: str, k: int, work: Path, *, size: int, spp: int,
         row[m] = {"surface_display_psnr_db": display_psnr(read_exr(a / f"{m}.exr")[..., :3],
                                                           ref, mask=mask),
                   "frame_ms": 1e3 * timings[f"{m}_s"]}
-    if uniform is None:
+    if uniform is None and subject != "smooth":
         s = _run(_config(glb, subject, size, spp, 1, ("sg",), scale=SUPERSAMPLE), work,
                  f"{tag}_ss")
         big = read_exr(s / "sg.exr")[..., :3]
@@ -161,46 +178,99 @@ def measure(subject: str, k: int, work: Path, *, size: int, spp: int,
     return row
 
 
-def report(rows: list[dict], size: int, spp: int) -> str:
-    lines = ["# Textured glTF materials: sg and fis against the reference", "",
+def entry_sweep(work: Path, *, size: int, spp: int) -> list[dict]:
+    """gmm on `smooth` 1× (after `measure` rendered its references) for each of ENTRY_COUNTS
+    roughness entries: surface display PSNR, the entries' fit time and stored bytes."""
+    from sgpipe.io import read_exr
+    from sgpipe.metrics import display_psnr, surface_mask
+    glb = work / "smooth_1x.glb"
+    ra, rb = (read_exr(work / f"smooth_1x_{s}" / "render" / "reference.exr")[..., :3]
+              for s in "ab")
+    ref = 0.5 * (ra + rb)
+    mask = surface_mask(np.load(work / "smooth_1x_a" / "render" / "gbuffer.npz",
+                                allow_pickle=False)["object_id"])
+    rows = []
+    for n in ENTRY_COUNTS:
+        d = _run(_config(glb, "smooth", size, spp, 1, ("gmm",), entries=n), work,
+                 f"smooth_entries{n}").parent
+        fit_t = json.loads((d / "fit" / "timings.json").read_text())
+        mat = json.loads((d / "fit" / "materials.json").read_text())["materials"][0]
+        grid = json.loads((d / "fit" / mat / "report.json").read_text())["view_gmm"]
+        rows.append({"entries": n, "gmm_db": display_psnr(
+            read_exr(d / "render" / "gmm.exr")[..., :3], ref, mask=mask),
+            "fit_s": fit_t.get(f"{mat}.view_gmm_rough_s", 0.0),
+            "factor_fit_s": fit_t[f"{mat}.view_gmm_s"] - fit_t.get(f"{mat}.view_gmm_rough_s",
+                                                                    0.0),
+            "bytes": grid["roughness_grid"]["bytes"]})
+    return rows
+
+
+def _db(row: dict, method: str) -> float:
+    return row[method]["surface_display_psnr_db"]
+
+
+def gmm_uniform_db(controls: list[dict]) -> float:
+    """gmm's mean on the uniform controls of the textures' roughness range."""
+    return float(np.mean([_db(r, "gmm") for r in controls
+                          if r["roughness"] <= TEXTURE_ROUGHNESS_MAX]))
+
+
+def report(rows: list[dict], size: int, spp: int, sweep: list[dict] | None = None) -> str:
+    lines = ["# Textured glTF materials: sg, fis and gmm against the reference", "",
              "Generated by `python -m sgpipe.experiments.gltf_textures` (part of "
              "`make figures`); do not edit by hand.", "",
-             f"The sample asset `data_samples/textured_ball.glb` and a plane seen at 50° from "
-             f"its normal with the same textures, minified k times (KHR_texture_transform "
-             f"scale k), {size}², studio map. Surface display PSNR (dB) against the mean of two "
-             f"{spp}-spp references; floor: the two references against each other + 6 dB. "
-             f"Goal: sg ≥ {GOAL_DB:.0f} dB. The asset's normal texture (not minified) is read "
-             f"by sg and fis bilinearly at the pixel's centre, unfiltered, where the reference "
-             f"averages the shading of the normals under the pixel; `sg {SUPERSAMPLE}²` is sg "
-             f"rendered at {SUPERSAMPLE}× the size per side and box-averaged down to {size}²: "
-             f"the part of sg's error that is the normals' sub-pixel variation.", "",
-             f"| subject | k | sg | fis | sg {SUPERSAMPLE}² | floor | sg ms | fis ms |",
-             "|---|---|---|---|---|---|---|---|"]
+             f"The sample asset `data_samples/textured_ball.glb`, the same without its normal "
+             f"texture (`smooth`), and a plane seen at 50° from its normal with the asset's "
+             f"textures, minified k times (KHR_texture_transform scale k), {size}², studio map. "
+             f"Surface display PSNR (dB) against the mean of two {spp}-spp references; floor: "
+             f"the two references against each other + 6 dB. Goals: sg ≥ {GOAL_DB:.0f} dB; gmm "
+             f"within {GMM_GOAL_DB:.0f} dB of its mean on the uniform controls of the textures' "
+             f"roughness range (≤ {TEXTURE_ROUGHNESS_MAX:g}). The asset's normal texture (not "
+             f"minified) is read by every method bilinearly at the pixel's centre, unfiltered, "
+             f"where the reference averages the shading of the normals under the pixel; "
+             f"`sg {SUPERSAMPLE}²` is sg rendered at {SUPERSAMPLE}× the size per side and "
+             f"box-averaged down to {size}²: the part of sg's error that is the normals' "
+             f"sub-pixel variation.", "",
+             f"| subject | k | sg | fis | gmm | sg {SUPERSAMPLE}² | floor | sg ms | fis ms | "
+             f"gmm ms |", "|---|---|---|---|---|---|---|---|---|---|"]
     textured = [r for r in rows if r["subject"] != "uniform"]
     controls = [r for r in rows if r["subject"] == "uniform"]
     for r in textured:
-        lines.append(f"| {r['subject']} | {r['minification']}× | "
-                     f"{r['sg']['surface_display_psnr_db']:.1f} | "
-                     f"{r['fis']['surface_display_psnr_db']:.1f} | "
-                     f"{r['sg_supersampled_db']:.1f} | {r['floor_db']:.1f} | "
-                     f"{r['sg']['frame_ms']:.0f} | {r['fis']['frame_ms']:.0f} |")
+        ss = f"{r['sg_supersampled_db']:.1f}" if "sg_supersampled_db" in r else "–"
+        lines.append(f"| {r['subject']} | {r['minification']}× | {_db(r, 'sg'):.1f} | "
+                     f"{_db(r, 'fis'):.1f} | {_db(r, 'gmm'):.1f} | {ss} | {r['floor_db']:.1f} | "
+                     + " | ".join(f"{r[m]['frame_ms']:.0f}" for m in METHODS) + " |")
     if controls:
         lines += ["", "Control: the unit sphere in a uniform `gltf_pbr` material (base colour "
                   f"{list(UNIFORM_BASE)}), same camera, map and references — what each method "
                   "reaches on one material of the textures' range before any filtering:", "",
-                  "| metallic | roughness | sg | fis | floor |", "|---|---|---|---|---|"]
+                  "| metallic | roughness | sg | fis | gmm | floor |",
+                  "|---|---|---|---|---|---|"]
         for r in controls:
-            lines.append(f"| {r['metallic']:g} | {r['roughness']:g} | "
-                         f"{r['sg']['surface_display_psnr_db']:.1f} | "
-                         f"{r['fis']['surface_display_psnr_db']:.1f} | {r['floor_db']:.1f} |")
-    worst = min(textured, key=lambda r: r["sg"]["surface_display_psnr_db"])
-    met = worst["sg"]["surface_display_psnr_db"] >= GOAL_DB
+            lines.append(f"| {r['metallic']:g} | {r['roughness']:g} | {_db(r, 'sg'):.1f} | "
+                         f"{_db(r, 'fis'):.1f} | {_db(r, 'gmm'):.1f} | {r['floor_db']:.1f} |")
+    if sweep:
+        lines += ["", "gmm's roughness entries (`fit.view_gmm.roughness_entries`) on `smooth` 1×: "
+                  "surface display PSNR, the entries' fit time on this machine (2 cores; the "
+                  "material's own mixtures beside it) and their stored size "
+                  "(view_gmm_rough.npz's float32 arrays):", "",
+                  "| entries | gmm | entries' fit s | own fit s | stored KiB |",
+                  "|---|---|---|---|---|"]
+        for r in sweep:
+            lines.append(f"| {r['entries']} | {r['gmm_db']:.1f} | {r['fit_s']:.1f} | "
+                         f"{r['factor_fit_s']:.1f} | {r['bytes'] / 1024:.0f} |")
+    worst = min(textured, key=lambda r: _db(r, "sg"))
+    met = _db(worst, "sg") >= GOAL_DB
     lines += ["", f"sg's worst cell: {worst['subject']} {worst['minification']}×, "
-              f"{worst['sg']['surface_display_psnr_db']:.1f} dB — the goal is "
-              f"{'met' if met else 'missed'} on every cell." if met else
-              f"sg's worst cell: {worst['subject']} {worst['minification']}×, "
-              f"{worst['sg']['surface_display_psnr_db']:.1f} dB: the goal is missed.", ""]
-    return "\n".join(lines)
+              f"{_db(worst, 'sg'):.1f} dB: the goal is {'met' if met else 'missed'}."]
+    if controls:
+        u = gmm_uniform_db(controls)
+        short = [r for r in textured if _db(r, "gmm") < u - GMM_GOAL_DB]
+        lines.append(f"gmm's mean on the controls of roughness ≤ {TEXTURE_ROUGHNESS_MAX:g}: "
+                     f"{u:.1f} dB; the textured cells more than {GMM_GOAL_DB:.0f} dB below it: "
+                     + (", ".join(f"{r['subject']} {r['minification']}× {_db(r, 'gmm'):.1f}"
+                                  for r in short) or "none") + ".")
+    return "\n".join(lines + [""])
 
 
 def main(argv=None) -> int:
@@ -209,8 +279,8 @@ def main(argv=None) -> int:
     ap.add_argument("--results", type=Path, default=None, help="Markdown page to write")
     ap.add_argument("--size", type=int, default=128)
     ap.add_argument("--spp", type=int, default=512)
-    ap.add_argument("--subjects", nargs="+", default=["ball", "plane", "uniform"],
-                    help="ball, plane (minified) and uniform (the control spheres)")
+    ap.add_argument("--subjects", nargs="+", default=["ball", "smooth", "plane", "uniform"],
+                    help="ball, smooth, plane (minified) and uniform (the control spheres)")
     ap.add_argument("--minifications", nargs="+", type=int, default=list(MINIFICATIONS))
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
@@ -225,11 +295,18 @@ def main(argv=None) -> int:
         print(f"[gltf_textures] {subject} {what}: " + ", ".join(
             f"{m} {row[m]['surface_display_psnr_db']:.2f} dB" for m in METHODS)
             + f" (floor {row['floor_db']:.1f})", flush=True)
-    (a.out / "gltf_textures.json").write_text(json.dumps(rows, indent=1))
+    sweep = None
+    if "smooth" in a.subjects and 1 in a.minifications:
+        sweep = entry_sweep(a.out, size=a.size, spp=a.spp)
+        for r in sweep:
+            print(f"[gltf_textures] gmm with {r['entries']} roughness entries: "
+                  f"{r['gmm_db']:.2f} dB, fit {r['fit_s']:.1f} s", flush=True)
+    data = {"rows": rows, "entry_sweep": sweep}
+    (a.out / "gltf_textures.json").write_text(json.dumps(data, indent=1))
     if a.results is not None:
         a.results.parent.mkdir(parents=True, exist_ok=True)
-        a.results.write_text(report(rows, a.size, a.spp))
-        a.results.with_suffix(".json").write_text(json.dumps(rows, indent=1))
+        a.results.write_text(report(rows, a.size, a.spp, sweep))
+        a.results.with_suffix(".json").write_text(json.dumps(data, indent=1))
         print(f"[gltf_textures] wrote {a.results}")
     return 0
 
