@@ -12,7 +12,7 @@ rows (row 0 = v = 1) then lobe j: (α_j, α_j·r_j) — eq 24's linear textures,
 NDF coefficients γ_lm (⌈K/4⌉ float4 per texel, K = (l* + 1)², zero-padded).
 `nm_levels` int4 per (map, level): (lobe offset, side, mean offset, SH offset). `nm_info` int4
 per scene object: (first level row, levels, lobes J, has map). `nm_brdf` NM_BRDF_STRIDE floats
-per object: Blinn–Phong exponent s or microfacet roughness (Beckmann α, Cook–Torrance m), max
+per object: Blinn–Phong exponent s or microfacet roughness (Beckmann, GGX α, Cook–Torrance m), max
 taps along the footprint's major axis (1: isotropic), model (BRDF_MODELS), K (slots 0–3);
 environment specular on (1/0, slot 13), footprint filter (0 trilinear, 1 box:
 render.normalmap_footprint, slot 14), Han07 §5's l* (published_sh_order, slot 15); ρ̂_0 … ρ̂_16 of the specular function the SH method filters
@@ -32,8 +32,9 @@ import numpy as np
 
 from sgpipe.errors import BadInput
 
-#: Material models the kernels shade (nm_shade.h NM_LAMBERT … NM_COOK) → model code.
-BRDF_MODELS = {"lambert": 0, "blinn_phong": 1, "beckmann": 2, "cook_torrance": 3}
+#: Material models the kernels shade (nm_shade.h NM_LAMBERT … NM_GLTF) → model code.
+BRDF_MODELS = {"lambert": 0, "blinn_phong": 1, "beckmann": 2, "cook_torrance": 3, "ggx": 4,
+               "gltf_pbr": 5}
 BRDF_STRIDE = 36     # nm_shade.h NM_BRDF_STRIDE
 RHO0 = 16            # first ρ̂_l slot (nm_shade.h NM_RHO_SLOT)
 ENV_SLOT = 13        # environment specular on
@@ -173,8 +174,9 @@ class NormalMapData:
 
 def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
     """The pyramids of the scene's normal-mapped objects from `<out>/normalmap/index.json`, each
-    object's material (its `specs[k]`: Lambert, Blinn–Phong, Beckmann or Cook–Torrance; other
-    models are refused: eq 20 / 21 are the closed forms these kernels implement) and the
+    object's material (its `specs[k]`: Lambert, Blinn–Phong, Beckmann, Cook–Torrance, GGX or
+    glTF metal-rough; other models are refused: eq 20 / 21 are the closed forms these kernels
+    implement) and the
     environment (SH for nm_sh's diffuse term; specular through Γ_L when there is one)."""
     lobes = [material_lobe(spec) for spec in specs]
     nm_dir = Path(out_dir) / "normalmap"
@@ -236,25 +238,33 @@ def published_sh_order(model: str, param: float) -> int:
 
 
 def material_lobe(spec) -> tuple[str, float]:
-    """(model, parameter) of a material spec: Blinn–Phong exponent s, Beckmann α or
-    Cook–Torrance m (isotropic; Blinn–Phong without Fresnel); Lambert: ('lambert', 1)."""
+    """(model, parameter) of a material spec: Blinn–Phong exponent s, Beckmann α,
+    Cook–Torrance m or GGX α (`ggx`; `gltf_pbr`: max(roughness, 0.06)²), isotropic (Blinn–Phong
+    without Fresnel); Lambert: ('lambert', 1)."""
     params = dict(spec.params or {})
     if spec.model == "lambert":
         return "lambert", 1.0
     if spec.model not in BRDF_MODELS:
         raise BadInput(f"the normal-map methods shade Lambert, Blinn–Phong (Han07 eq 20), "
-                       f"Beckmann and Cook–Torrance (eq 21) materials; material {spec.name!r} "
-                       f"is {spec.model!r}", key=f"fit.materials.{spec.name}.model")
+                       f"Beckmann, Cook–Torrance, GGX and glTF metal-rough (eq 21) materials; "
+                       f"material {spec.name!r} is {spec.model!r}",
+                       key=f"fit.materials.{spec.name}.model")
+    if spec.model == "gltf_pbr":
+        from sgpipe.brdf.models import GLTF_MIN_ROUGHNESS
+        if float(params.get("anisotropy", 0.0)) != 0.0:
+            raise BadInput("the normal-map methods shade isotropic glTF materials",
+                           key=f"fit.materials.{spec.name}.params.anisotropy")
+        return "gltf_pbr", max(float(params.get("roughness", 1.0)), GLTF_MIN_ROUGHNESS) ** 2
     if spec.model == "blinn_phong":
         if params.get("fresnel", "none") != "none":
             raise BadInput("the normal-map methods take fresnel: none for Blinn–Phong",
                            key=f"fit.materials.{spec.name}.params.fresnel")
         return "blinn_phong", float(params.get("exponent", 100.0))
-    if spec.model == "beckmann":
+    if spec.model in ("beckmann", "ggx"):
         if "alpha_u" in params or "alpha_v" in params:
-            raise BadInput("the normal-map methods shade isotropic Beckmann (alpha)",
+            raise BadInput(f"the normal-map methods shade isotropic {spec.model} (alpha)",
                            key=f"fit.materials.{spec.name}.params.alpha_u")
-        return "beckmann", float(params.get("alpha", 0.1))
+        return spec.model, float(params.get("alpha", 0.1))
     return "cook_torrance", float(params.get("m", 0.2))
 
 
@@ -267,6 +277,10 @@ def specular_function(model: str, param: float):
     if model == "beckmann":
         from sgpipe.brdf.ndf import beckmann_ndf
         return lambda u: beckmann_ndf(u, param) / 4.0
+    if model in ("ggx", "gltf_pbr"):
+        a2 = param * param
+        return lambda u: np.where(u > 0, a2 / (4.0 * math.pi * (u * u * (a2 - 1.0) + 1.0) ** 2),
+                                  0.0)
     if model == "cook_torrance":
         m = param
         return lambda u: np.where(u > 0, np.exp(-(np.arccos(np.clip(u, -1, 1)) / m) ** 2), 0.0

@@ -40,8 +40,11 @@ def material(model: str, param: float, kd=0.0, ks=1.0, fresnel="none"):
     """(sgpipe.brdf BRDF, Material) of a normal-map material."""
     if model == "lambert":
         params = {"kd": kd}
+    elif model == "gltf_pbr":       # a white metal (F0 = 1: F ≡ 1) of GGX α = param
+        params = {"base_color": [1.0, 1.0, 1.0], "metallic": 1.0, "roughness": math.sqrt(param)}
     else:
-        key = {"blinn_phong": "exponent", "beckmann": "alpha", "cook_torrance": "m"}[model]
+        key = {"blinn_phong": "exponent", "beckmann": "alpha", "cook_torrance": "m",
+               "ggx": "alpha"}[model]
         params = {key: param, "kd": kd, "ks": ks, "fresnel": fresnel}
     brdf = make_brdf(model, params)
     return brdf, Material.from_brdf(model, brdf)
@@ -118,8 +121,23 @@ def g1_beckmann(c, a):
     return 1 / (1 + lam)
 
 
-def microfacet_lobe(model, a, amp, n, o, i):
-    """nm_shade.h nm_spec for Beckmann / Cook–Torrance (F = 1, ks = 1): G·D/(n·o) about n."""
+def _ggx_root(c, a):
+    return math.sqrt(1 + a * a * (1 - c * c) / (c * c))
+
+
+def ggx_conv_lobes(alpha, kappa):
+    """nm_shade.h nm_ggx_conv_lobes: (λ′, μ′) of GGX's D/4 at α as the roughness grid's SG
+    lobes, each convolved with vMF(κ)."""
+    from sgpipe.artifacts.fit import rough_lobes_at
+    from sgpipe.core.ggx_conv import load_lobes
+    lam, mu = rough_lobes_at(*load_lobes(), alpha)
+    lc = lam * kappa / (lam + kappa)
+    return lc, mu * lc / lam / (4 * math.pi * alpha * alpha)
+
+
+def microfacet_lobe(model, a, amp, n, o, i, lobes=None):
+    """nm_shade.h nm_spec for Beckmann / Cook–Torrance / GGX (separable and height-correlated
+    Smith) (F = 1, ks = 1): G·D/(n·o) about n; `lobes` (λ, μ): GGX's D/4 as those SGs."""
     n, o, i = unit(n), unit(o), unit(i)
     ci, co = n @ i, n @ o
     if ci <= 0 or co <= 0:
@@ -129,6 +147,12 @@ def microfacet_lobe(model, a, amp, n, o, i):
     if model == "beckmann":
         d = math.exp(-(1 - ch * ch) / (ch * ch * a * a)) / (4 * math.pi * a * a * ch ** 4)
         g = g1_beckmann(co, a) * g1_beckmann(ci, a)
+    elif model in ("ggx", "gltf_pbr"):
+        d = a * a / (4 * math.pi * (ch * ch * (a * a - 1) + 1) ** 2)
+        ro, ri = _ggx_root(co, a), _ggx_root(ci, a)
+        g = 4 / ((1 + ro) * (1 + ri)) if model == "ggx" else 2 / (ro + ri)
+        if lobes is not None:
+            d = float(np.sum(lobes[1] * np.exp(lobes[0] * (ch - 1))))
     else:
         d = amp / math.pi * math.exp(-(math.acos(min(ch, 1.0)) / a) ** 2)
         g = min(1.0, 2 * ch * co / oh, 2 * ch * ci / oh)

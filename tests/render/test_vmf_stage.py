@@ -1,6 +1,7 @@
 """The normal-map methods through the stages (fit → normalmap → render): a grooves-mapped
 plane at a grazing angle under a point light, vmf / normals_mip / toksvig against the
-box-filtered Monte Carlo reference of the unfiltered map; a non-Blinn–Phong material is refused."""
+box-filtered Monte Carlo reference of the unfiltered map (Blinn–Phong, GGX, glTF); a model the
+kernels do not shade is refused."""
 
 import json
 from pathlib import Path
@@ -62,11 +63,31 @@ def test_stage_renders_and_compares_every_method(rendered):
     assert psnr["vmf"] > psnr["normals_mip"] + 1.0, psnr
 
 
-def test_non_blinn_phong_material_is_refused(tmp_path):
-    conf = _config(tmp_path, "ggx", {"alpha": 0.2})
+@pytest.mark.parametrize("model,params", [
+    ("ggx", {"alpha": 0.12, "kd": 0.15, "ks": 0.85, "fresnel": "schlick", "f0": 0.6}),
+    ("gltf_pbr", {"base_color": [0.9, 0.7, 0.4], "metallic": 1.0, "roughness": 0.35})])
+def test_ggx_materials_through_the_stages(tmp_path, model, params):
+    """GGX and the glTF BRDF in the normal-map methods (their own D, Smith G, Fresnel; eq 21
+    through GGX's SG lobes): under the point light vmf keeps the grooves' spread that the
+    normalised MIP throws away, by more than 1 dB against the reference (GGX α 0.12: vmf 13.5,
+    normals_mip 11.3 dB; Beckmann of the same α 11.2 / 9.2, Blinn–Phong 21.4 / 16.8: a sharp
+    light on grooves seen at 75°)."""
+    conf = _config(tmp_path, model, params)
+    from sgpipe.stages import fit, normalmap, render
+    out = tmp_path / "out"
+    fit.run(conf, out)
+    normalmap.run(conf, out)
+    render.run(conf, out)
+    cmp = json.loads((out / "render" / "manifest.json").read_text())["report"]["compare"]
+    psnr = {m: cmp[m]["surface"]["display_psnr_db"] for m in ("vmf", "normals_mip", "toksvig")}
+    assert psnr["vmf"] > psnr["normals_mip"] + 1.0, psnr
+
+
+def test_unsupported_material_is_refused(tmp_path):
+    conf = _config(tmp_path, "ashikhmin_shirley", {"nu": 100, "nv": 100})
     from sgpipe.render.normalmap_data import load_normalmap_data
     from sgpipe.render.setup import object_material_specs
-    with pytest.raises(BadInput, match="Blinn"):
+    with pytest.raises(BadInput, match="Blinn.*GGX"):
         load_normalmap_data(conf, tmp_path / "out", object_material_specs(conf))
 
 

@@ -90,7 +90,7 @@ class ViewGmmSpec:
         "gltf_pbr (isotropic): also fit the specular mixtures at this many roughness values "
         "from 0.06 to the material's roughness factor (uniform in ln α), Schlick F0 as a "
         "linear basis, so that gmm renders textured roughness, metalness and base colour per "
-        "pixel (view_gmm_rough.npz; 0: none, gmm renders the factors).", 8, ge=0, le=64)
+        "pixel (view_gmm_rough.npz; 0: none, gmm renders the factors).", 16, ge=0, le=64)
     holdout: bool = doc("Measure interpolation error at held-out views halfway in θ (with "
                         "coherent: true also for independent fits, for comparison).", True)
     report_views_deg: list[float] = doc("View elevations for the error-vs-lobes curve and "

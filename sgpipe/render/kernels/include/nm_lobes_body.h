@@ -49,9 +49,11 @@
             if (lr <= 0.0f) continue;
             float kappa = nm_kappa_of(lr);
             float sp = kappa > 1e20f ? s : kappa * s / (kappa + s);          /* eq 20 */
-            float a2 = s * s + 2.0f / kappa;                                   /* eq 21 */
+            float a2 = nm_convolved_a2(model, s, kappa);                       /* eq 21 */
             float3 mu = normalize(to_world(r / lr, T, B, N));
-            float4 par = (float4)(s * s / a2, sp, bnorm * (sp + 1.0f), sqrt(a2));
+            /* D amplitude (Cook–Torrance); GGX: −κ, the material's D convolved (nm_mf_d) */
+            float da = model == NM_GGX || model == NM_GLTF ? -kappa : s * s / a2;
+            float4 par = (float4)(da, sp, bnorm * (sp + 1.0f), sqrt(a2));
             /* the box's texels repeat on a periodic map: their equal lobes shade once */
             if (nm_merge_tap(ax, lp, n0l, nlob, mu, t.x, par)) continue;
             lrl[nlob] = fmin(lr, 1.0f);

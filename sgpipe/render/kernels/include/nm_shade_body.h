@@ -411,6 +411,11 @@
                 spec += lp[j].x * nm_spec(m, ks, model, ax[j].xyz, o, i, lp[j].y, lp[j].z,
                                           lp[j].w, ax[j].w);
         }
+        if (model == NM_GLTF) {   /* glTF's diffuse under the F0 0.04 coat: o·h does not
+                                   * depend on the normal, one factor for every lobe */
+            float xh = 1.0f - clamp(dot(o, normalize(o + i)), 0.0f, 1.0f), x2 = xh * xh;
+            diff *= 0.96f * (1.0f - x2 * x2 * xh);
+        }
         acc += (kd * (diff * MF_INV_PI) + spec) * E;
     }
     out[gid] = (float4)(acc, 1.0f);
