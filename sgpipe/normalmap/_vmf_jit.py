@@ -21,14 +21,14 @@ from sgpipe.normalmap.lobes import rbar_of_kappa
 
 @njit(cache=True)
 def _gather(normals, level, i, j, x):
-    """x[:] = the 4^level normals of texel (i, j) (row-major inside the block)."""
+    """x[:] = the 4^level normals (or feature vectors: any last axis) of texel (i, j)
+    (row-major inside the block)."""
     b = 1 << level
     s = 0
     for r in range(i * b, (i + 1) * b):
         for c in range(j * b, (j + 1) * b):
-            x[s, 0] = normals[r, c, 0]
-            x[s, 1] = normals[r, c, 1]
-            x[s, 2] = normals[r, c, 2]
+            for a in range(x.shape[1]):
+                x[s, a] = normals[r, c, a]
             s += 1
 
 
@@ -184,10 +184,11 @@ def match_slots(alpha, mu, nb_a, nb_m, n_nb, order):
 
 
 @njit(cache=True)
-def match_level(u_alpha, u_mu, u_kappa, p_alpha, p_mu, has_parent, alpha, mu, kappa):
+def match_level(u_alpha, u_mu, u_kappa, u_feat, p_alpha, p_mu, has_parent, alpha, mu, kappa,
+                feat):
     """Pass 2a of one level ≥ 1 (coarse → fine, Han07 §7.3): texels in scan-line order, each
-    one's pass-1 lobes (u_*) permuted into the slots of the coarser parent and of the
-    previously visited, already permuted neighbours (`match_slots`)."""
+    one's pass-1 lobes (u_*, their features u_feat) permuted into the slots of the coarser
+    parent and of the previously visited, already permuted neighbours (`match_slots`)."""
     m_side = alpha.shape[0]
     k_n = alpha.shape[2]
     nb_a = np.zeros((5, k_n))
@@ -201,13 +202,16 @@ def match_level(u_alpha, u_mu, u_kappa, p_alpha, p_mu, has_parent, alpha, mu, ka
                 alpha[i, j, b] = u_alpha[i, j, order[b]]
                 mu[i, j, b, :] = u_mu[i, j, order[b], :]
                 kappa[i, j, b] = u_kappa[i, j, order[b]]
+                feat[i, j, b, :] = u_feat[i, j, order[b], :]
 
 
 @njit(cache=True, parallel=True)
-def fit_level(normals, level, aligned, c_alpha, c_mu, c_rbar, from_normals, m_alpha, m_mu,
-              m_kappa, p_alpha, p_mu, has_parent, alpha, mu, kappa, rbar, c_align, max_iter,
-              tol, kappa_max):
+def fit_level(normals, feats, level, aligned, c_alpha, c_mu, c_rbar, from_normals, m_alpha,
+              m_mu, m_kappa, m_feat, p_alpha, p_mu, has_parent, alpha, mu, kappa, rbar, feat,
+              c_align, max_iter, tol, kappa_max):
     """EM of every texel of one level ≥ 1 in parallel (one compiled kernel for both passes).
+    feats (N, N, F) holds a feature vector per normal (F may be 0); each lobe's feature, the
+    responsibility-weighted mean of its normals' (Han07 eq 22), goes to feat (m, m, J, F).
 
     Pass 1 (aligned False, fine → coarse): start from Hochbaum–Shmoys on the finer level's
     lobes (c_*; the map's normals when from_normals), no pull. Pass 2b (aligned True): start
@@ -218,8 +222,7 @@ def fit_level(normals, level, aligned, c_alpha, c_mu, c_rbar, from_normals, m_al
     k_n = alpha.shape[2]
     b2 = 1 << (2 * level)
     ones = np.ones(b2)
-    y = np.zeros((b2, 0))
-    y_out = np.zeros((k_n, 0))
+    n_f = feats.shape[2]
     rbar_max = rbar_of_kappa(kappa_max)
     nc = 4 if from_normals else 4 * c_alpha.shape[2]
     for t in prange(m_side * m_side):
@@ -232,6 +235,7 @@ def fit_level(normals, level, aligned, c_alpha, c_mu, c_rbar, from_normals, m_al
             alpha[i, j, :] = m_alpha[i, j, :]
             mu[i, j, :, :] = m_mu[i, j, :, :]
             kappa[i, j, :] = m_kappa[i, j, :]
+            feat[i, j, :, :] = m_feat[i, j, :, :]
             n_nb = _neighbours(m_alpha, m_mu, i, j, p_alpha, p_mu, has_parent, nb5_a, nb5_m)
         else:
             w = np.empty(nc)
@@ -243,10 +247,12 @@ def fit_level(normals, level, aligned, c_alpha, c_mu, c_rbar, from_normals, m_al
         if not aligned or (c_align > 0.0 and n_nb > 0):
             x = np.empty((b2, 3))
             _gather(normals, level, i, j, x)
+            y = np.empty((b2, n_f))
+            _gather(feats, level, i, j, y)
             nb_a = nb5_a[:n_nb].copy()
             nb_m = nb5_m[:n_nb].copy()
             em_vmf(x, ones, y, alpha[i, j], mu[i, j], kappa[i, j], nb_a, nb_m,
-                   c_align if aligned else 0.0, max_iter, tol, kappa_max, y_out)
+                   c_align if aligned else 0.0, max_iter, tol, kappa_max, feat[i, j])
         _finish(alpha[i, j], kappa[i, j], rbar[i, j], kappa_max)
 
 

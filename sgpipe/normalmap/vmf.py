@@ -36,40 +36,50 @@ class VMFSettings:
 
 @dataclass
 class VMFPyramid:
-    """Per level ℓ (side n/2^ℓ): alpha[ℓ] (m, m, J) and alpha_r[ℓ] (m, m, J, 3), float32."""
+    """Per level ℓ (side n/2^ℓ): alpha[ℓ] (m, m, J) and alpha_r[ℓ] (m, m, J, 3), float32; with
+    features, alpha_f[ℓ] (m, m, J, F) = α_j × lobe j's feature vector (Han07 eq 22: linear in
+    the NDF like α·r, so a lookup recovers a lobe's features as T(αf)/T(α))."""
 
     alpha: list
     alpha_r: list
+    alpha_f: list | None = None
 
     @property
     def lobes(self) -> int:
         return int(self.alpha[0].shape[2])
 
 
-def _textures(alpha, mu, rbar):
-    """(α, α·r) float32 of lobe parameters, r = rbar · μ (§7.3: the quantities linear in γ)."""
+def _textures(alpha, mu, rbar, feat):
+    """(α, α·r, α·f) float32 of lobe parameters, r = rbar · μ, f the lobe's features (§7.3: the
+    quantities linear in γ)."""
     ar = (alpha * rbar)[..., None] * mu
-    return alpha.astype(np.float32), ar.astype(np.float32)
+    return alpha.astype(np.float32), ar.astype(np.float32), (alpha[..., None] * feat).astype(
+        np.float32)
 
 
-def _level0_textures(normals, slot, k_n, rbar_max):
+def _level0_textures(normals, slot, k_n, rbar_max, features):
     n = normals.shape[0]
     alpha = np.zeros((n, n, k_n), np.float32)
     ar = np.zeros((n, n, k_n, 3), np.float32)
+    af = np.zeros((n, n, k_n, features.shape[2]), np.float32)
     ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
     alpha[ii, jj, slot] = 1.0
     ar[ii, jj, slot] = (rbar_max * normals).astype(np.float32)
-    return alpha, ar
+    af[ii, jj, slot] = features.astype(np.float32)
+    return alpha, ar, af
 
 
 def fit_vmf_pyramid(normals: np.ndarray, settings: VMFSettings = VMFSettings(),
-                    progress=None, fine: np.ndarray | None = None) -> VMFPyramid:
+                    progress=None, fine: np.ndarray | None = None,
+                    features: np.ndarray | None = None) -> VMFPyramid:
     """The vMF textures of every level of a (n, n, 3) unit normal map. With `fine` (n·s, n·s,
     3), the unit normals of s × s sub-samples per texel (`bilinear.bilinear_normals`), the
     levels ≥ 1 are fitted to those instead (level ℓ: the (2^ℓ s)² sub-samples of a texel; the
     log2 s sub-sample levels below are fitted in pass 1 only, for the Hochbaum–Shmoys
-    candidates); level 0 stays the map. `progress(step, what)` is called after each level of
-    each pass (for a progress bar)."""
+    candidates); level 0 stays the map. `features` (n, n, F): a feature vector per texel
+    (colour, material parameters; each sub-sample takes its texel's), whose responsibility-
+    weighted mean each lobe carries (Han07 eq 22; VMFPyramid.alpha_f). `progress(step, what)`
+    is called after each level of each pass (for a progress bar)."""
     s = settings
     normals = np.ascontiguousarray(normals, np.float64)
     n = normals.shape[0]
@@ -77,45 +87,57 @@ def fit_vmf_pyramid(normals: np.ndarray, settings: VMFSettings = VMFSettings(),
     shift = (src.shape[0] // n).bit_length() - 1    # sub-sample levels below level 0
     if src.shape[0] != n << shift:
         raise ValueError(f"sub-sample map side {src.shape[0]} is not {n}·2^k")
+    with_f = features is not None
+    f0 = (np.zeros((n, n, 0)) if features is None
+          else np.ascontiguousarray(features, np.float64))
+    if f0.shape[:2] != (n, n):
+        raise ValueError(f"features have shape {f0.shape}, expected ({n}, {n}, F)")
+    fsrc = np.ascontiguousarray(np.repeat(np.repeat(f0, 1 << shift, 0), 1 << shift, 1))
+    n_f = f0.shape[2]
     k_n = int(s.lobes)
     n_lev = level_count(n, s.levels)
     rbar_max = rbar_of_kappa(s.kappa_max)
     dummy_a = np.zeros((1, 1, k_n))
     dummy_m = np.zeros((1, 1, k_n, 3))
+    dummy_f = np.zeros((1, 1, k_n, n_f))
     fits = [None]                                   # index: level of src; 0 is src itself
     for lev in range(1, n_lev + shift):             # pass 1, fine → coarse
         m = src.shape[0] >> lev
         a, mu, ka, rb = (np.zeros((m, m, k_n)), np.zeros((m, m, k_n, 3)),
                          np.zeros((m, m, k_n)), np.zeros((m, m, k_n)))
+        ft = np.zeros((m, m, k_n, n_f))
         c = fits[-1]
         ca, cmu, crb = c[:3] if c else (dummy_a, dummy_m, dummy_a)
-        jit.fit_level(src, lev, False, ca, cmu, crb, c is None, dummy_a, dummy_m, dummy_a,
-                      dummy_a, dummy_m, False, a, mu, ka, rb, 0.0, s.max_iter, s.tol,
-                      s.kappa_max)
-        fits.append((a, mu, rb, ka))
+        jit.fit_level(src, fsrc, lev, False, ca, cmu, crb, c is None, dummy_a, dummy_m,
+                      dummy_a, dummy_f, dummy_a, dummy_m, False, a, mu, ka, rb, ft, 0.0,
+                      s.max_iter, s.tol, s.kappa_max)
+        fits.append((a, mu, rb, ka, ft))
         if lev <= shift:
             fits[lev - 1] = None                    # a sub-sample level: only its parent needs it
         if progress:
             progress(1, f"level {lev - shift} EM")
     fits = [None] + fits[1 + shift:]                # index: level of the map
     if not s.align:
-        alpha = [_level0_textures(normals, np.zeros((n, n), np.int64), k_n, rbar_max)]
-        alpha += [_textures(f[0], f[1], f[2]) for f in fits[1:]]
-        return VMFPyramid([t[0] for t in alpha], [t[1] for t in alpha])
+        alpha = [_level0_textures(normals, np.zeros((n, n), np.int64), k_n, rbar_max, f0)]
+        alpha += [_textures(f[0], f[1], f[2], f[4]) for f in fits[1:]]
+        return VMFPyramid([t[0] for t in alpha], [t[1] for t in alpha],
+                          [t[2] for t in alpha] if with_f else None)
     out = [None] * n_lev
     parent = None
     for lev in range(n_lev - 1, 0, -1):             # pass 2, coarse → fine
-        ua, umu, _, uka = fits[lev]
+        ua, umu, _, uka, uft = fits[lev]
         m = n >> lev
         a, mu, ka, rb = (np.zeros((m, m, k_n)), np.zeros((m, m, k_n, 3)),
                          np.zeros((m, m, k_n)), np.zeros((m, m, k_n)))
+        ft = np.zeros((m, m, k_n, n_f))
         pa, pm = parent if parent is not None else (dummy_a, dummy_m)
-        ma, mmu, mka = np.zeros_like(a), np.zeros_like(mu), np.zeros_like(ka)
-        jit.match_level(ua, umu, uka, pa, pm, parent is not None, ma, mmu, mka)
-        jit.fit_level(src, lev + shift, True, dummy_a, dummy_m, dummy_a, False, ma, mmu, mka, pa,
-                      pm, parent is not None, a, mu, ka, rb, float(s.align_strength),
-                      s.align_iter, s.tol, s.kappa_max)
-        out[lev] = _textures(a, mu, rb)
+        ma, mmu, mka, mft = (np.zeros_like(a), np.zeros_like(mu), np.zeros_like(ka),
+                             np.zeros_like(ft))
+        jit.match_level(ua, umu, uka, uft, pa, pm, parent is not None, ma, mmu, mka, mft)
+        jit.fit_level(src, fsrc, lev + shift, True, dummy_a, dummy_m, dummy_a, False, ma, mmu,
+                      mka, mft, pa, pm, parent is not None, a, mu, ka, rb, ft,
+                      float(s.align_strength), s.align_iter, s.tol, s.kappa_max)
+        out[lev] = _textures(a, mu, rb, ft)
         parent = (a, mu)
         fits[lev] = None                            # free pass-1 memory as we go
         if progress:
@@ -123,8 +145,9 @@ def fit_vmf_pyramid(normals: np.ndarray, settings: VMFSettings = VMFSettings(),
     slot = np.zeros((n, n), np.int64)
     pa, pm = parent if parent is not None else (dummy_a, dummy_m)
     jit.align_level0(normals, pa, pm, parent is not None, k_n, slot)
-    out[0] = _level0_textures(normals, slot, k_n, rbar_max)
-    return VMFPyramid([t[0] for t in out], [t[1] for t in out])
+    out[0] = _level0_textures(normals, slot, k_n, rbar_max, f0)
+    return VMFPyramid([t[0] for t in out], [t[1] for t in out],
+                      [t[2] for t in out] if with_f else None)
 
 
 def progress_steps(side: int, settings: VMFSettings, subsamples: int = 1) -> int:
@@ -192,6 +215,25 @@ def lookup(pyr: VMFPyramid, u: float, v: float, lod: float):
     for j in range(k_n):
         al[j], mu[j], ka[j] = lobe_from_texel(t[j, 0], t[j, 1], t[j, 2], t[j, 3])
     return al, mu, ka
+
+
+def lookup_features(pyr: VMFPyramid, u: float, v: float, lod: float) -> np.ndarray:
+    """Each lobe's feature vector (J, F) at a trilinear lookup: T(α·f)/T(α), as `lookup`
+    recovers μ and κ from T(α·r)/T(α) (0 for an empty lobe)."""
+    lod = min(max(float(lod), 0.0), len(pyr.alpha) - 1.0)
+    l0 = int(math.floor(lod))
+    l1 = min(l0 + 1, len(pyr.alpha) - 1)
+    f = lod - l0
+    k_n, n_f = pyr.lobes, pyr.alpha_f[0].shape[3]
+
+    def fetch(lev):
+        tex = np.concatenate([pyr.alpha[lev][..., None], pyr.alpha_f[lev]], axis=3)
+        return bilinear(tex.reshape(tex.shape[0], tex.shape[1], -1).astype(np.float64),
+                        u, v).reshape(k_n, 1 + n_f)
+
+    t = fetch(l0) * (1 - f) + (fetch(l1) * f if f > 0 else 0.0)
+    a = t[:, :1]
+    return np.where(a > 0, t[:, 1:] / np.where(a > 0, a, 1.0), 0.0)
 
 
 def texel_lobes(pyr: VMFPyramid, level: int, row: int, col: int):
