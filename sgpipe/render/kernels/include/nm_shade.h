@@ -391,8 +391,9 @@ inline void nm_sh_rotate9(const float *g, float3 t, float3 b, float3 n, float *w
 
 /* The normal-map kernels' prologue (shading.h's SHADE_PIXEL_PROLOGUE without its per-pixel
  * normal-map fetch and quaternion, which these methods replace by the filtered pyramids):
- * threads past n return; locals N, T, B, x, uv, kd, ks (textured), m, ob and the SSDF state
- * `vis` (off under FLAG_NO_VISIBILITY). */
+ * threads past n return; locals N, T, B, x, uv, kd, ks (their textures filtered over the
+ * pixel's footprint, as sg, gmm and fis read them: the plain MIP of the colour), m, ob and the
+ * SSDF state `vis` (off under FLAG_NO_VISIBILITY). */
 #define NM_PIXEL_PROLOGUE \
     int gid = get_global_id(0); \
     if (gid >= n) return; \
@@ -402,8 +403,9 @@ inline void nm_sh_rotate9(const float *g, float3 t, float3 b, float3 n, float *w
     int8 ob = objs[gobj[gid]]; \
     __global const float *m = mats + OBJ_MAT(ob) * MAT_STRIDE; \
     float3 kd = mat3(m, MAT_KD), ks = mat3(m, MAT_KS); \
-    if ((int)m[MAT_KDTEX] >= 0) kd *= tex_bilinear(texels, texinfo[(int)m[MAT_KDTEX]], uv).xyz; \
-    if ((int)m[MAT_KSTEX] >= 0) ks *= tex_bilinear(texels, texinfo[(int)m[MAT_KSTEX]], uv).xyz; \
+    int kdt_ = (int)m[MAT_KDTEX], kst_ = (int)m[MAT_KSTEX]; \
+    if (kdt_ >= 0) kd *= tex_filtered(texels, texinfo[kdt_], texaff, kdt_, uv, gduv[gid]).xyz; \
+    if (kst_ >= 0) ks *= tex_filtered(texels, texinfo[kst_], texaff, kst_, uv, gduv[gid]).xyz; \
     Vis vis; \
     vis_init(&vis, ob, OBJF_MAXD(objf[gobj[gid]]), gtri[gid], gbary[gid], vfaces, coeffs, \
              ssdf_data, !(flags & FLAG_NO_VISIBILITY))
