@@ -224,6 +224,8 @@ def _gmm_rough_blocks(g: dict, gmm: dict | None):
 def pack_materials(materials: list[Material]) -> MaterialTable:
     """Pack materials in list order (index = material id used by object records)."""
     recs = np.zeros((max(len(materials), 1), MAT_STRIDE), np.float32)
+    # texture and table indices: none (the one record of an empty table is a blank material)
+    recs[:, [GMM, KDTEX, KSTEX, BCTEX, MRTEX, SVLOB, ETAB, ETGRID, EMTEX, ANTEX, GMR]] = -1
     lobes, tables, gmm = [], [], []
     ndf_info = np.zeros((max(len(materials), 1), 4), np.int32)
     n_lobe = n_tab = n_gmm = 0

@@ -1,5 +1,6 @@
-"""gmm (Töral19) with textured glTF materials: the specular mixtures fitted per roughness with
-Schlick's F0 as a linear basis (fit.view_gmm_rough), read per pixel by gmm_shade.cl."""
+"""Textured glTF materials in gmm (Töral19: the specular mixtures fitted per roughness with
+Schlick's F0 as a linear basis, fit.view_gmm_rough, read per pixel by gmm_shade.cl) and in
+transport (the pixel's own BRDF lobes and diffuse colour beside the stage's Gaussians)."""
 
 from __future__ import annotations
 
@@ -101,3 +102,40 @@ def test_gmm_textured_halves_are_as_close_as_their_uniform_materials(tmp_path, l
         own = err(half[tag]["gmm"])
         assert err(img) <= own + 0.02, (tag, err(img), own)
         assert err(plain) >= own + 0.2, (tag, err(plain), own)
+
+
+def test_transport_textured_halves_render_as_their_uniform_materials(tmp_path):
+    """`transport` on the halves quad under the studio map (nothing occludes: the visibility
+    ratio is 1): its BRDF lobes, delta lights and diffuse colour f_d are the pixel's own, so away
+    from the seam each half renders as the uniform quad of its material within 2 % — the left
+    half's diffuse included, which the factors (metal) give none of."""
+    from sgpipe.io import read_exr
+    tex, uniform = gb.halves_quads(tmp_path)
+
+    def render(glb, tag):
+        cfg = tmp_path / f"{tag}.yaml"
+        cfg.write_text(f"""
+scene: {{gltf: [{{file: {glb}}}]}}
+fit: {{view_gmm: {{enabled: false}}, ndf_sg: {{report_lobes: 0}}}}
+envmap: {{environment: {STUDIO}, cube_resolution: 32}}
+visibility: {{trace_resolution: 16, resolution: 8, pca_terms: 4}}
+transport: {{cube_resolution: 8, report_vertices: 0}}
+render:
+  camera: {{eye: [0, 0, 3.0], target: [0, 0, 0], fov_deg: 30, width: 32, height: 32}}
+  methods: [transport]
+  environment_exposure: -2
+""")
+        out = tmp_path / f"out_{tag}"
+        r = subprocess.run([sys.executable, "-m", "sgpipe", "run", str(cfg), "--out", str(out)],
+                           capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr[-2000:]
+        return read_exr(out / "render" / "transport.exr")[..., :3]
+    img = render(tex, "tex")
+    half = {tag: render(glb, tag) for tag, glb in uniform.items()}
+    cols = np.arange(32)
+    rows = slice(6, 26)
+    for sel, tag in ((cols < 13, "a"), (cols > 18, "b")):
+        want = half[tag][rows][:, sel]
+        assert np.abs(want).max() > 0.02
+        err = np.abs(img[rows][:, sel] - want).mean() / np.abs(want).mean()
+        assert err <= 0.02, (tag, err)

@@ -26,6 +26,10 @@
  *   transfer stays in SH (it is smooth). tp_light_sh: 25 rows of the whole map, 25 of the map
  *   minus the points, 25 of the points alone (transport_data.py).
  * Local lights (render.lights): see tp_light_glossy and shading.h sg_light_diffuse.
+ * Textured materials: the BRDF's lobes, the delta lights' exact BRDF and the diffuse colour
+ * f_d are the pixel's own (pixel_init's record from the filtered textures); the Gaussians
+ * (the ratio's occlusion, and `transport_green06`'s glossy part) are the stage's, fitted for the
+ * material's factors.
  * tp_obj per object: (first vertex row, first face, Gaussians K, TP_HAS_* bits). */
 #include "sg.h"
 #include "asg.h"
@@ -218,7 +222,13 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
                 if (ndf.w && Lw.lam >= SHARP_LIGHT && fdir.z > 0.0f)
                     rs += sharp_light_specular(E, px.m, tables, ndf, px.ks, px.op, fdir);
             }
-            rd = (rd + rl) * tp_fd[gobj[gid]].xyz;
+            /* f_d at normal incidence, as the stage stores the object's in tp_fd: a textured
+             * material's from the pixel's own record (pixel_init: its filtered base colour,
+             * metalness or kd texture) */
+            float3 z = (float3)(0.0f, 0.0f, 1.0f);
+            float3 fd = px.m[MAT_SV] > 0.5f || (int)px.m[MAT_KDTEX] >= 0
+                        ? mf_diffuse(px.m, px.kd, z, z) : tp_fd[gobj[gid]].xyz;
+            rd = (rd + rl) * fd;
         }
     }
     out[gid] = (float4)(rd + rs, 1.0f);
