@@ -6,9 +6,10 @@ scale k, samplers repeating: k² times the texels under each pixel),
 rendered under the studio map by `sg`, `fis` and `gmm` (per-pixel parameters from the
 MIP-filtered textures), by `transport` and `transport_green06` (with the visibility and
 transport stages, in a run of their own) and by the Monte Carlo `reference` (the unfiltered
-textures at each sample's hit); the asset without its normal texture (`smooth`: the textured parameters alone);
-as a control, a sphere in uniform metal and dielectric materials of roughness 0.1–0.9; and gmm's
-error, fit time and storage against its count of roughness entries (fit.view_gmm_rough).
+textures at each sample's hit); the asset without its normal texture (`smooth`: the textured
+parameters alone); as a control, a sphere in uniform metal and dielectric materials of
+roughness 0.1–0.9; and gmm's error, fit time and storage against its count of roughness entries
+(fit.view_gmm_rough).
 
     python -m sgpipe.experiments.gltf_textures --out out/figures/gltf_textures \\
         --results docs/results/gltf_textures.md
