@@ -273,3 +273,37 @@ def add_anisotropy(doc: g.GLTF2, strength: float, rotation: float = 0.0,
                                    "KHR_materials_anisotropy": ext}
     doc.extensionsUsed = sorted(set(doc.extensionsUsed or []) | {"KHR_materials_anisotropy"})
     return doc
+
+
+STUDIO = Path(__file__).resolve().parents[2] / "data_samples" / "studio.exr"
+
+
+def render_quad(folder: Path, glb: Path, tag: str, methods, *, light: bool = False,
+                fit: str = "{view_gmm: {enabled: false}}", sections: str = "",
+                render: str = "") -> dict:
+    """`sgpipe run` of a glTF file seen from +z at 3 units (32², the studio map at cube 32):
+    under one point light (the map dimmed by 2⁻³⁰) or the map at exposure −2; `fit` the fit
+    section, `sections` further top-level YAML lines, `render` further render lines (each
+    ending in a newline) -> {method: image (32, 32, 3)}."""
+    import subprocess
+    import sys
+
+    from sgpipe.io import read_exr
+    cfg = folder / f"{tag}.yaml"
+    lights = ("lights: [{type: point, position: [0.6, 0.4, 1.5], intensity: [5, 5, 5], "
+              "radius: 0.0}]\n  environment_exposure: -30" if light else
+              "environment_exposure: -2")
+    cfg.write_text(f"""
+scene: {{gltf: [{{file: {glb}}}]}}
+fit: {fit}
+{sections}envmap: {{environment: {STUDIO}, cube_resolution: 32}}
+render:
+  camera: {{eye: [0, 0, 3.0], target: [0, 0, 0], fov_deg: 30, width: 32, height: 32}}
+  methods: [{', '.join(methods)}]
+{render}  {lights}
+""")
+    out = folder / f"out_{tag}"
+    r = subprocess.run([sys.executable, "-m", "sgpipe", "run", str(cfg), "--out", str(out)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return {m: read_exr(out / "render" / f"{m}.exr")[..., :3] for m in methods}

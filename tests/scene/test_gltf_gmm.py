@@ -4,7 +4,6 @@ transport (the pixel's own BRDF lobes and diffuse colour beside the stage's Gaus
 
 from __future__ import annotations
 
-import subprocess
 import sys
 from pathlib import Path
 
@@ -17,8 +16,6 @@ from sgpipe.fit.view_gmm_rough import amplitudes_at, fit_rough_view_gmm, roughne
 
 sys.path.insert(0, str(Path(__file__).parent))
 import gltf_builder as gb  # noqa: E402
-
-STUDIO = Path(__file__).resolve().parents[2] / "data_samples" / "studio.exr"
 
 
 def test_roughness_entries_span_the_texels_range():
@@ -55,27 +52,10 @@ def test_f0_basis_mixtures_are_the_material_for_any_f0(rough):
 
 
 def _render(tmp_path, glb: Path, tag: str, light: bool, entries: int = 8) -> dict:
-    from sgpipe.io import read_exr
-    cfg = tmp_path / f"{tag}.yaml"
-    lights = ("lights: [{type: point, position: [0.6, 0.4, 1.5], intensity: [5, 5, 5], "
-              "radius: 0.0}]\n  environment_exposure: -30" if light else
-              "environment_exposure: -2")
-    cfg.write_text(f"""
-scene: {{gltf: [{{file: {glb}}}]}}
-fit: {{view_gmm: {{theta_count: 12, report_lobes: 0, holdout: false,
-                   roughness_entries: {entries}}}}}
-envmap: {{environment: {STUDIO}, cube_resolution: 32}}
-render:
-  camera: {{eye: [0, 0, 3.0], target: [0, 0, 0], fov_deg: 30, width: 32, height: 32}}
-  methods: [gmm, fis]
-  fis_samples: 1024
-  {lights}
-""")
-    out = tmp_path / f"out_{tag}"
-    r = subprocess.run([sys.executable, "-m", "sgpipe", "run", str(cfg), "--out", str(out)],
-                       capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr[-2000:]
-    return {m: read_exr(out / "render" / f"{m}.exr")[..., :3] for m in ("gmm", "fis")}
+    fit = (f"{{view_gmm: {{theta_count: 12, report_lobes: 0, holdout: false,\n"
+           f"                   roughness_entries: {entries}}}}}")
+    return gb.render_quad(tmp_path, glb, tag, ("gmm", "fis"), light=light, fit=fit,
+                          render="  fis_samples: 1024\n")
 
 
 @pytest.mark.parametrize("light", [True, False], ids=["point_light", "environment"])
@@ -109,27 +89,14 @@ def test_transport_textured_halves_render_as_their_uniform_materials(tmp_path):
     ratio is 1): its BRDF lobes, delta lights and diffuse colour f_d are the pixel's own, so away
     from the seam each half renders as the uniform quad of its material within 2 % — the left
     half's diffuse included, which the factors (metal) give none of."""
-    from sgpipe.io import read_exr
     tex, uniform = gb.halves_quads(tmp_path)
 
     def render(glb, tag):
-        cfg = tmp_path / f"{tag}.yaml"
-        cfg.write_text(f"""
-scene: {{gltf: [{{file: {glb}}}]}}
-fit: {{view_gmm: {{enabled: false}}, ndf_sg: {{report_lobes: 0}}}}
-envmap: {{environment: {STUDIO}, cube_resolution: 32}}
-visibility: {{trace_resolution: 16, resolution: 8, pca_terms: 4}}
-transport: {{cube_resolution: 8, report_vertices: 0}}
-render:
-  camera: {{eye: [0, 0, 3.0], target: [0, 0, 0], fov_deg: 30, width: 32, height: 32}}
-  methods: [transport]
-  environment_exposure: -2
-""")
-        out = tmp_path / f"out_{tag}"
-        r = subprocess.run([sys.executable, "-m", "sgpipe", "run", str(cfg), "--out", str(out)],
-                           capture_output=True, text=True)
-        assert r.returncode == 0, r.stderr[-2000:]
-        return read_exr(out / "render" / "transport.exr")[..., :3]
+        return gb.render_quad(
+            tmp_path, glb, tag, ("transport",),
+            fit="{view_gmm: {enabled: false}, ndf_sg: {report_lobes: 0}}",
+            sections="visibility: {trace_resolution: 16, resolution: 8, pca_terms: 4}\n"
+                     "transport: {cube_resolution: 8, report_vertices: 0}\n")["transport"]
     img = render(tex, "tex")
     half = {tag: render(glb, tag) for tag, glb in uniform.items()}
     cols = np.arange(32)

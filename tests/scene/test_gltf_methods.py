@@ -4,7 +4,6 @@ interpolated lobes (fit.ndf_sg_rough), the footprint-filtered lookups (tex_filte
 
 from __future__ import annotations
 
-import subprocess
 import sys
 from pathlib import Path
 
@@ -19,8 +18,6 @@ from sgpipe.render.textures import Textures, mip_chain
 sys.path.insert(0, str(Path(__file__).parent))
 sys.path.insert(0, str(Path(__file__).parents[1] / "render"))
 import gltf_builder as gb  # noqa: E402
-
-STUDIO = Path(__file__).resolve().parents[2] / "data_samples" / "studio.exr"
 
 
 # -- the roughness grid -------------------------------------------------------------------
@@ -143,26 +140,8 @@ def test_kernel_lookup_is_the_box_footprint_over_mip_levels():
 
 # -- per-pixel materials in sg and fis ----------------------------------------------------
 def _render(tmp_path, glb: Path, tag: str, light: bool) -> dict:
-    from sgpipe.io import read_exr
-    cfg = tmp_path / f"{tag}.yaml"
-    lights = ("lights: [{type: point, position: [0.6, 0.4, 1.5], intensity: [5, 5, 5], "
-              "radius: 0.0}]\n  environment_exposure: -30" if light else
-              "environment_exposure: -2")
-    cfg.write_text(f"""
-scene: {{gltf: [{{file: {glb}}}]}}
-fit: {{view_gmm: {{enabled: false}}}}
-envmap: {{environment: {STUDIO}, cube_resolution: 32}}
-render:
-  camera: {{eye: [0, 0, 3.0], target: [0, 0, 0], fov_deg: 30, width: 32, height: 32}}
-  methods: [sg, fis]
-  fis_samples: 256
-  {lights}
-""")
-    out = tmp_path / f"out_{tag}"
-    r = subprocess.run([sys.executable, "-m", "sgpipe", "run", str(cfg), "--out", str(out)],
-                       capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr[-2000:]
-    return {m: read_exr(out / "render" / f"{m}.exr")[..., :3] for m in ("sg", "fis")}
+    return gb.render_quad(tmp_path, glb, tag, ("sg", "fis"), light=light,
+                          render="  fis_samples: 256\n")
 
 
 @pytest.mark.parametrize("light", [True, False], ids=["point_light", "environment"])
