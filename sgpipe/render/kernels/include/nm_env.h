@@ -97,20 +97,35 @@ inline float nm_env_point(__global const float *m, int model, float3 n, float3 o
            / (co * co);
 }
 
-/* One SG of the lobe's D in h, amp_h e^{lam_h (n·h − 1)} about the unit axis n (microfacet
- * roughness a for the masking), under the environment: Σ over its sub-lobes of the SG's
- * weight × factors × f̂_h(SSDF) × (Γ_L + the point set's Gaussians). The SSDF is decoded once,
- * at the centre sub-lobe; the side sub-lobes take θ_d shifted by their change of elevation
- * (exact for the horizon), as the `sg` method does. */
-inline float3 nm_spec_env_sg(__global const float *m, float3 ks, int model, float3 n, float3 o,
-                             float lam_h, float amp_h, float a, float3 T, float3 B,
-                             float3 N, const Vis *vis,
-                             __global const float4 *pyr, __global const int *pyr_off,
-                             __global const int *pyr_res, __global const float *pyr_lam,
-                             int pyr_n, float pyr_log_ratio, float3 env_mean,
-                             __global const float4 *pyr_pts, int n_pts,
-                             __global const float4 *pyr_raw, int raw_n, float env_scale) {
+/* The lobe about the unit axis n (Blinn–Phong exponent e with normalisation `norm`, or
+ * microfacet roughness a with D amplitude `amp`) under the environment: its D as one SG in h of
+ * the same mass, Σ over its sub-lobes of the SG's weight × factors × f̂_h(SSDF) × (Γ_L + the
+ * point set's Gaussians). The SSDF is decoded once, at the centre sub-lobe; the side sub-lobes
+ * take θ_d shifted by their change of elevation (exact for the horizon), as the `sg` method
+ * does. GGX (a: the peak-matched roughness) keeps no tail this way: +1 … +14 % under a
+ * constant environment, −13 … −44 % at views 80–87° (GGX's own SG lobes, nm_ggx_conv_lobes,
+ * hold the tail, but their broad lobes' warp and factors overshoot up to ×4.5 at α 0.6;
+ * tests/normalmap/test_render_env.py). */
+inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 n, float3 o,
+                          float e, float norm, float a, float amp, float3 T, float3 B,
+                          float3 N, const Vis *vis,
+                          __global const float4 *pyr, __global const int *pyr_off,
+                          __global const int *pyr_res, __global const float *pyr_lam,
+                          int pyr_n, float pyr_log_ratio, float3 env_mean,
+                          __global const float4 *pyr_pts, int n_pts,
+                          __global const float4 *pyr_raw, int raw_n, float env_scale) {
+    if (model == NM_LAMBERT) return (float3)(0.0f);
     float3 ol = nm_lift(o, n, 0.01f);
+    float lam_h, amp_h;
+    if (model == NM_BLINN) {          /* (n·h)^e ≈ e/(e+1)·e^{e(n·h − 1)}: the same integral */
+        lam_h = e;
+        amp_h = norm * e / (e + 1.0f);
+    } else {  /* e^{−tan²θ/a²}, e^{−θ²/a²}, GGX's peak ≈ e^{(2/a²)(n·h − 1)}: the same mass */
+        lam_h = 2.0f / (a * a);
+        /* Cook–Torrance: the SG's mass πa² exceeds the θ-Gaussian's πa²(1 − a²/6) */
+        amp_h = model != NM_COOK ? 1.0f / (4.0f * SG_PI * a * a)
+                                 : amp * MF_INV_PI * (1.0f - a * a / 6.0f);
+    }
     SG w = sg_warp(sg_make(n, lam_h, (float3)(amp_h)), ol);
     float sh = rsqrt(lam_h);
     /* the lobe's mean factors at its axis, kept one σ above n's horizon (a grazing view reflects
@@ -171,36 +186,6 @@ inline float3 nm_spec_env_sg(__global const float *m, float3 ks, int model, floa
                        + gamma_points(pyr_pts, n_pts, pk[k], lam_x));
     }
     return acc * env_scale;
-}
-
-/* The lobe about the unit axis n (Blinn–Phong exponent e with normalisation `norm`, or
- * microfacet roughness a with D amplitude `amp`) under the environment, its D as one SG in h of
- * the same mass through nm_spec_env_sg. GGX (a: the peak-matched roughness) keeps no tail
- * this way: +1 … +14 % under a constant environment, −13 … −44 % at views 80–87° (GGX's own
- * SG lobes, nm_ggx_conv_lobes, hold the tail, but their broad lobes' warp and factors
- * overshoot up to ×4.5 at α 0.6; tests/normalmap/test_render_env.py). */
-inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 n, float3 o,
-                          float e, float norm, float a, float amp, float3 T, float3 B,
-                          float3 N, const Vis *vis,
-                          __global const float4 *pyr, __global const int *pyr_off,
-                          __global const int *pyr_res, __global const float *pyr_lam,
-                          int pyr_n, float pyr_log_ratio, float3 env_mean,
-                          __global const float4 *pyr_pts, int n_pts,
-                          __global const float4 *pyr_raw, int raw_n, float env_scale) {
-    if (model == NM_LAMBERT) return (float3)(0.0f);
-    float lam_h, amp_h;
-    if (model == NM_BLINN) {          /* (n·h)^e ≈ e/(e+1)·e^{e(n·h − 1)}: the same integral */
-        lam_h = e;
-        amp_h = norm * e / (e + 1.0f);
-    } else {  /* e^{−tan²θ/a²}, e^{−θ²/a²}, GGX's peak ≈ e^{(2/a²)(n·h − 1)}: the same mass */
-        lam_h = 2.0f / (a * a);
-        /* Cook–Torrance: the SG's mass πa² exceeds the θ-Gaussian's πa²(1 − a²/6) */
-        amp_h = model != NM_COOK ? 1.0f / (4.0f * SG_PI * a * a)
-                                 : amp * MF_INV_PI * (1.0f - a * a / 6.0f);
-    }
-    return nm_spec_env_sg(m, ks, model, n, o, lam_h, amp_h, a, T, B, N, vis, pyr, pyr_off,
-                          pyr_res, pyr_lam, pyr_n, pyr_log_ratio, env_mean, pyr_pts, n_pts,
-                          pyr_raw, raw_n, env_scale);
 }
 
 /* The environment's point set (records (c_k, ·), (E_k, ·): a sun, the brightest texels) as
