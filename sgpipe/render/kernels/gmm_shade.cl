@@ -212,16 +212,14 @@ __kernel void gmm_shade(GMM_SHADE_ARGS)
     if (grid) {
         int ne = (int)m[MAT_GMR_N];
         int rows = 2 * (int)m[MAT_GMM_NT] * (int)m[MAT_GMM_NP] * (int)m[MAT_GMM_K];
-        float g = ne > 1 ? (log(m[MAT_AV]) - log(m[MAT_GMR_A0]))
-                           / (log(m[MAT_GMR_A1]) - log(m[MAT_GMR_A0])) * (float)(ne - 1) : 0.0f;
-        g = clamp(g, 0.0f, (float)(ne - 1));
+        float step = ne > 1 ? (log(m[MAT_GMR_A1]) - log(m[MAT_GMR_A0])) / (float)(ne - 1) : 0.0f;
+        float la = log(m[MAT_AV]) - log(m[MAT_GMR_A0]);   /* ln(α / α of the first entry) */
+        float g = ne > 1 ? clamp(la / step, 0.0f, (float)(ne - 1)) : 0.0f;
         int e0 = min((int)floor(g), max(ne - 2, 0));
         float fe = g - (float)e0;
         ebase[0] = (int)m[MAT_GMR] + e0 * rows;
         ebase[1] = ebase[0] + rows;
         ew[0] = 1.0f - fe; ew[1] = fe;
-        float step = ne > 1 ? (log(m[MAT_GMR_A1]) - log(m[MAT_GMR_A0])) / (float)(ne - 1) : 0.0f;
-        float la = log(m[MAT_AV]) - log(m[MAT_GMR_A0]);
         ewarp[0] = exp(la - (float)e0 * step);
         ewarp[1] = exp(la - (float)(e0 + 1) * step);
         n_ent = fe > 0.0f ? 2 : 1;
