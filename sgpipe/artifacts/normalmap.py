@@ -24,6 +24,9 @@ SH = "sh.npz"
 BASELINES = "baselines.npz"
 QUALITY = "quality.json"
 PREVIEW_LEVELS = "preview_levels.png"
+#: the vMF lobes' colour features (Han07 eq 22; `feature_names` in vmf.npz, in this order): the
+#: render.material_textures multipliers of kd and ks
+FEATURE_NAMES = ("kd.r", "kd.g", "kd.b", "ks.r", "ks.g", "ks.b")
 
 
 def map_file(name: str, f: str) -> str:
@@ -72,14 +75,18 @@ def _levels_arrays(prefix: str, levels: list[np.ndarray]) -> dict:
 
 # -- writers (the normalmap stage) ------------------------------------------------------------
 def write_vmf(sink, name: str, alpha: list, alpha_r: list, *, kappa_max: float,
-              aligned: bool) -> None:
+              aligned: bool, alpha_f: list | None = None) -> None:
     """`vmf.npz`: alpha_LL (m, m, J) and alpha_r_LL (m, m, J, 3) float32 per level LL; one
-    RGBA EXR atlas per lobe j (channels alpha, alpha_r.x/y/z: Algorithm 2's vMFTexture[j])."""
+    RGBA EXR atlas per lobe j (channels alpha, alpha_r.x/y/z: Algorithm 2's vMFTexture[j]).
+    With colour features (Han07 eq 22): alpha_f_LL (m, m, J, F) and `feature_names`, one EXR
+    atlas per lobe of α·f (`vmf_lobe<j>_features.exr`) and a PNG of the lobe's kd colour."""
     k_n = alpha[0].shape[2]
+    extra = {} if alpha_f is None else {**_levels_arrays("alpha_f", alpha_f),
+                                        "feature_names": np.array(FEATURE_NAMES)}
     sink.write_npz(map_file(name, VMF), {
         **_levels_arrays("alpha", alpha), **_levels_arrays("alpha_r", alpha_r),
         "levels": np.int32(len(alpha)), "lobes": np.int32(k_n),
-        "kappa_max": np.float64(kappa_max), "aligned": np.int32(aligned)})
+        "kappa_max": np.float64(kappa_max), "aligned": np.int32(aligned), **extra})
     for j in range(k_n):
         tex = [np.concatenate([a[..., j:j + 1], ar[..., j, :]], -1) for a, ar in
                zip(alpha, alpha_r)]
@@ -88,6 +95,19 @@ def write_vmf(sink, name: str, alpha: list, alpha_r: list, *, kappa_max: float,
                            metadata={"normal_map": name, "lobe": j, "layout": "mip_atlas"})
         _vector_png(sink, map_file(name, Path(p).with_suffix(".png").name),
                     [ar[..., j, :] for ar in alpha_r])          # α·r: grey where empty
+        if alpha_f is None:
+            continue
+        stem = Path(vmf_atlas_name(j)).stem + "_features"
+        sink.write_exr(map_file(name, stem + ".exr"),
+                       atlas([np.asarray(af[..., j, :], np.float32) for af in alpha_f]),
+                       png=False,
+                       channel_names=[f"alpha_f.{c}" for c in FEATURE_NAMES],
+                       metadata={"normal_map": name, "lobe": j, "layout": "mip_atlas"})
+        kd = [np.where(a[..., j:j + 1] > 0, af[..., j, :3], 0.0)
+              / np.maximum(a[..., j:j + 1], 1e-30) for a, af in zip(alpha, alpha_f)]
+        sink.write_png(map_file(name, stem + ".png"),     # the lobe's kd: black where empty
+                       np.round(np.clip(atlas(kd), 0, 1) * 255).astype(np.uint8),
+                       already_8bit=True)
 
 
 def write_sh(sink, name: str, gamma: list, lmax: int) -> None:
@@ -139,6 +159,7 @@ class VMFTextures:
     alpha_r: list     # per level (m, m, J, 3) float32
     kappa_max: float
     aligned: bool
+    alpha_f: list | None = None    # per level (m, m, J, F) float32: α·features (eq 22)
 
 
 def _levels(z, prefix, n, path, key, tail):
@@ -161,9 +182,17 @@ def read_vmf(nm_dir: str | Path, name: str) -> VMFTextures:
     key = f"normalmap.{name}"
     z = read_npz(path, key=key, required=("levels", "lobes", "alpha_00", "alpha_r_00"))
     n, k = int(scalar(z["levels"])), int(scalar(z["lobes"]))
+    alpha_f = None
+    if "alpha_f_00" in z:
+        names = tuple(str(x) for x in np.asarray(z.get("feature_names", [])).reshape(-1))
+        if names != FEATURE_NAMES:
+            raise BadInput(f"feature_names {list(names)}, expected {list(FEATURE_NAMES)}",
+                           file=path, key=key)
+        alpha_f = _levels(z, "alpha_f", n, path, key, (k, len(FEATURE_NAMES)))
     return VMFTextures(_levels(z, "alpha", n, path, key, (k,)),
                        _levels(z, "alpha_r", n, path, key, (k, 3)),
-                       scalar(z.get("kappa_max", 1e4)), bool(scalar(z.get("aligned", 1))))
+                       scalar(z.get("kappa_max", 1e4)), bool(scalar(z.get("aligned", 1))),
+                       alpha_f)
 
 
 def read_sh(nm_dir: str | Path, name: str) -> tuple[list, int]:

@@ -113,13 +113,19 @@ def subject_scene(subject: str, minification: float, size: int, work: Path) -> d
     return {"mesh": str(mesh), "camera": cam, "light": light}
 
 
-def build_config(scene: dict, normal_map: Path, methods: list[str], *, lobes: int, spp: int,
-                 material: dict = MATERIAL, light_scale: float = 1.0, taps: int = 8,
-                 footprint: str = FOOTPRINT, bilinear_samples: int = BILINEAR_SAMPLES):
-    """A validated root Config (through the schema, as a YAML file would be)."""
+def build_config(scene: dict, normal_map: Path, methods: list[str], **kw):
+    """A validated root Config of `raw_config` (through the schema, as a YAML file would be)."""
     from sgpipe.config.root import Config
     from sgpipe.config.schema import Context, build
-    raw = {
+    return build(Config, raw_config(scene, normal_map, methods, **kw), (),
+                 Context(file=None, lines={}))
+
+
+def raw_config(scene: dict, normal_map: Path, methods: list[str], *, lobes: int, spp: int,
+               material: dict = MATERIAL, light_scale: float = 1.0, taps: int = 8,
+               footprint: str = FOOTPRINT, bilinear_samples: int = BILINEAR_SAMPLES) -> dict:
+    """One Fig 2 cell's config as a YAML file would hold it."""
+    return {
         "name": "han07", "seed": 0,
         "scene": {"objects": [{"name": "surface", "mesh": scene["mesh"],
                                "material": material["name"], "normal_map": str(normal_map)}]},
@@ -132,7 +138,6 @@ def build_config(scene: dict, normal_map: Path, methods: list[str], *, lobes: in
                    "lights": [{"type": "directional", "direction": list(scene["light"]),
                                "intensity": [IRRADIANCE * light_scale] * 3}]},
     }
-    return build(Config, raw, (), Context(file=None, lines={}))
 
 
 def _why(e: BaseException) -> str:
@@ -333,7 +338,10 @@ def main(argv: list[str] | None = None) -> int:
                      size=size, spp=spp, log=log, footprint=a.footprint,
                      bilinear_samples=a.bilinear_samples)
     f3r = None if a.quick else ndf.fig3_render(a.out, log=log)
-    tg = targets(table)
+    from sgpipe.experiments import han07_colour as HC
+    colour = HC.run(a.out / "colour", size=size, spp=spp,
+                    minifications=(16,) if a.quick else MINIFICATIONS, log=log)
+    tg = targets(table) + HC.targets(colour)
     fig_dir = a.results.parent / "figures"
     fig_dir.mkdir(parents=True, exist_ok=True)
     sheets = []
@@ -351,18 +359,22 @@ def main(argv: list[str] | None = None) -> int:
                                              for m, cell in rows.items()}
                         for k, rows in table.items()},
                "fig7": f7["rows"], "fig3_ndf": f3, "fig3_render": (f3r or {}).get("rows"),
+               "colour": {f"{m:g}": {c: {x: v[x] for x in ("psnr", "flip", "error") if x in v}
+                                     for c, v in cell.items() if c != "reference"}
+                          for m, cell in colour.items()},
                "targets": tg}
     (a.out / "han07.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
     write_report(a.results, table, f7, f3, f3r, tg, sheets, columns(), missing_baselines(),
                  size=size, spp=spp, seconds=time.perf_counter() - t0, quick=a.quick,
                  footprint=a.footprint, bilinear_samples=a.bilinear_samples,
+                 colour=HC.section(colour),
                  command="python -m sgpipe.experiments.han07 " + " ".join(
                      sys.argv[1:] if argv is None else argv))
     for t in tg:
         log(f"[han07] target {'MET' if t['met'] else 'NOT MET'}: {t['name']} — {t['subject']}: "
             f"{t['value']}")
     log(f"[han07] wrote {a.results} in {time.perf_counter() - t0:.0f} s")
-    failed = sum("error" in v for rows in table.values() for cell in rows.values()
+    failed = sum("error" in v for rows in [*table.values(), colour] for cell in rows.values()
                  for v in cell.values())
     if failed:
         log(f"[han07] {failed} renders failed (named in the report)")

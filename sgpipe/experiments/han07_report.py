@@ -34,7 +34,8 @@ def _fig2_tables(table: dict, cols: list[str]) -> list[str]:
 
 def write_report(path: Path, table, f7, f3, f3r, tg, sheets, cols, missing, *, size: int,
                  spp: int, seconds: float,
-                 quick: bool, command: str, footprint: str, bilinear_samples: int) -> Path:
+                 quick: bool, command: str, footprint: str, bilinear_samples: int,
+                 colour: list[str] | None = None) -> Path:
     from sgpipe.experiments import han07 as H
     from sgpipe.experiments import han07_ndf as N
     from sgpipe.experiments.han07_corpus import corpus_section
@@ -80,6 +81,7 @@ def write_report(path: Path, table, f7, f3, f3r, tg, sheets, cols, missing, *, s
         L += [f"![Fig 2 {label}]({rel})  ", f"*Fig 2, {label}*: one row per minification of the table above; columns "
               "reference, then image and false-colour difference (red brighter, blue darker; "
               "scale shared along a row) for " + ", ".join(cols) + ".", ""]
+    L += colour or []
     L += corpus_section(H.ROOT / "docs" / "results" / "fidelity.json")
     L += ["## Fig 7 — one texel's NDF vs lobe count", "",
           f"The root texel of a pyramid fitted with default settings (aligned, 20 EM "

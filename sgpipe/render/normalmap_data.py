@@ -8,14 +8,17 @@ the normal-map kernels `vmf`, `normals_mip`, `toksvig`, `engine_bake`, `nm_sh`
 
 Layout (float4 `nm_data`): per map and level ℓ (side m) first the lobes, texel-major in image
 rows (row 0 = v = 1) then lobe j: (α_j, α_j·r_j) — eq 24's linear textures, interpolated before
-κ and μ are recovered — then the plain MIP of the normals (mean.xyz, |mean|) per texel, then the SH
+κ and μ are recovered — then, for a pyramid with colour features (eq 22), per texel and lobe j
+two float4 (α_j·kd.rgb, α_j·ks.r), (α_j·ks.g, α_j·ks.b, 0, 0) at the lobe offset + m²·J, then
+the plain MIP of the normals (mean.xyz, |mean|) per texel, then the SH
 NDF coefficients γ_lm (⌈K/4⌉ float4 per texel, K = (l* + 1)², zero-padded).
 `nm_levels` int4 per (map, level): (lobe offset, side, mean offset, SH offset). `nm_info` int4
 per scene object: (first level row, levels, lobes J, has map). `nm_brdf` NM_BRDF_STRIDE floats
-per object: Blinn–Phong exponent s or microfacet roughness (Beckmann, GGX α, Cook–Torrance m), max
-taps along the footprint's major axis (1: isotropic), model (BRDF_MODELS), K (slots 0–3);
-environment specular on (1/0, slot 13), footprint filter (0 trilinear, 1 box:
-render.normalmap_footprint, slot 14), Han07 §5's l* (published_sh_order, slot 15); ρ̂_0 … ρ̂_16 of the specular function the SH method filters
+per object: Blinn–Phong exponent s or microfacet roughness (Beckmann, GGX α, Cook–Torrance m),
+max taps along the footprint's major axis (1: isotropic), model (BRDF_MODELS), K (slots 0–3);
+the pyramid has colour features (1/0, slot 12); environment specular on (1/0, slot 13),
+footprint filter (0 trilinear, 1 box: render.normalmap_footprint, slot 14), Han07 §5's l*
+(published_sh_order, slot 15); ρ̂_0 … ρ̂_16 of the specular function the SH method filters
 (eq 11, slots RHO0 …); the rest 0.
 `nm_env_sh` float4 per coefficient: the environment's radiance SH L_lm (world, l ≤ 2).
 `nm_env_sh8` one zero row here: vmf_han07 binds Han07 §8's tables in its place
@@ -38,6 +41,7 @@ BRDF_MODELS = {"lambert": 0, "blinn_phong": 1, "beckmann": 2, "cook_torrance": 3
 BRDF_STRIDE = 36     # nm_shade.h NM_BRDF_STRIDE
 RHO0 = 16            # first ρ̂_l slot (nm_shade.h NM_RHO_SLOT)
 ENV_SLOT = 13        # environment specular on
+FEAT_SLOT = 12       # the pyramid carries colour features (nm_shade.h NM_FEAT_SLOT)
 FOOT_SLOT = 14       # footprint filter (nm_shade.h NM_FOOT_SLOT): 0 trilinear, 1 box
 LSTAR_SLOT = 15      # Han07 §5's l* of the material (published_sh_order; nm_shade.h NM_LSTAR_SLOT)
 FOOTPRINTS = {"trilinear": 0, "box": 1}
@@ -49,12 +53,14 @@ VMF_METHODS = {"vmf", "vmf_han07"}         # ... and the vMF pyramid
 @dataclass
 class NormalMapPyramid:
     """One map's levels: α (m, m, J), α·r (m, m, J, 3), the plain mean normal (m, m, 3) and
-    optionally the SH NDF coefficients γ_lm (m, m, K)."""
+    optionally the SH NDF coefficients γ_lm (m, m, K) and the lobes' colour features α·f
+    (m, m, J, 6: kd.rgb, ks.rgb; Han07 eq 22)."""
 
     alpha: list
     alpha_r: list
     mean: list
     gamma: list | None = None
+    alpha_f: list | None = None
 
     @classmethod
     def load(cls, nm_dir: Path, name: str, *, need_vmf: bool = True,
@@ -62,9 +68,10 @@ class NormalMapPyramid:
         from sgpipe.artifacts.normalmap import SH, VMF, map_file, read_baselines, read_sh, read_vmf
         b = read_baselines(nm_dir, name)
         n = len(b["mean"])
+        alpha_f = None
         if need_vmf or (Path(nm_dir) / map_file(name, VMF)).is_file():
             v = read_vmf(nm_dir, name)
-            alpha, alpha_r = v.alpha, v.alpha_r
+            alpha, alpha_r, alpha_f = v.alpha, v.alpha_r, v.alpha_f
         else:        # no vMF pyramid (normalmap.methods without vmf): zero lobes
             alpha = [np.zeros(m.shape[:2] + (0,), np.float32) for m in b["mean"]]
             alpha_r = [np.zeros(m.shape[:2] + (0, 3), np.float32) for m in b["mean"]]
@@ -80,7 +87,7 @@ class NormalMapPyramid:
         if len(alpha) != n or (gamma is not None and len(gamma) != n):
             raise BadInput("vmf.npz, sh.npz and baselines.npz have different level counts",
                            file=Path(nm_dir) / name, key=f"normalmap.{name}")
-        return cls(alpha, alpha_r, b["mean"], gamma)
+        return cls(alpha, alpha_r, b["mean"], gamma, alpha_f)
 
 
 @dataclass
@@ -105,6 +112,7 @@ class NormalMapData:
         parts, levels, info, off = [], [], [], 0
         seen: dict[int, tuple] = {}
         nsh = [0] * len(pyramids)
+        feat = [0.0] * len(pyramids)
         for k, p in enumerate(pyramids):
             if p is None:
                 info.append((0, 0, 0, 0))
@@ -115,6 +123,10 @@ class NormalMapData:
                     m = a.shape[0]
                     lob = np.concatenate([np.asarray(a, np.float32)[..., None],
                                           np.asarray(ar, np.float32)], -1).reshape(-1, 4)
+                    if p.alpha_f is not None:     # α·(kd, ks) per lobe, two float4 each
+                        af = np.zeros(a.shape + (8,), np.float32)
+                        af[..., :6] = np.asarray(p.alpha_f[lv], np.float32)[..., :6]
+                        lob = np.concatenate([lob, af.reshape(-1, 4)])
                     mn = np.zeros((m * m, 4), np.float32)
                     mn[:, :3] = np.asarray(mean, np.float32).reshape(-1, 3)
                     mn[:, 3] = np.linalg.norm(mn[:, :3], axis=1)   # the bake's per-texel |n̄|
@@ -132,12 +144,14 @@ class NormalMapData:
             info.append(seen[id(p)])
             if p.gamma is not None:
                 nsh[k] = int(np.asarray(p.gamma[0]).shape[-1])
+            feat[k] = 1.0 if p.alpha_f is not None else 0.0
         brdf = np.zeros((len(info), BRDF_STRIDE), np.float32)
         brdf[:, 0] = params
         brdf[:, 1] = max_taps
         brdf[:, 2] = models if models is not None else BRDF_MODELS["blinn_phong"]
         brdf[:, 3] = nsh
         brdf[:, FOOT_SLOT] = FOOTPRINTS[footprint]
+        brdf[:, FEAT_SLOT] = feat
         name_of = {code: name for name, code in BRDF_MODELS.items()}
         brdf[:, LSTAR_SLOT] = [published_sh_order(name_of[int(c)], float(p))
                                for c, p in zip(brdf[:, 2], brdf[:, 0])]

@@ -20,24 +20,29 @@ METHOD_ROWS = ("truth", "vmf", "sh", "toksvig", "normalized")
 
 
 def collect_maps(cfg) -> list[dict]:
-    """Distinct normal-map files of the scene in config order: {name, path, key, objects}; a
-    map's name is its file stem (made unique with -2, -3 … when stems collide)."""
-    maps: dict[str, dict] = {}
+    """Distinct normal-map files of the scene in config order: {name, path, key, objects,
+    textures}; a map's name is its file stem (made unique with -2, -3 … when stems collide).
+    With `normalmap.colour_features`, objects whose materials have different colour textures
+    (kd_map, ks_map) get distinct pyramids of the same map: the textures are its features."""
+    from sgpipe.normalmap.features import texture_files
+    maps: dict[tuple, dict] = {}
     names: set[str] = set()
+    with_features = cfg.normalmap is not None and cfg.normalmap.colour_features
     for k, o in enumerate(cfg.scene.objects if cfg.scene is not None else []):
         if o.normal_map is None:
             continue
         path = str(Path(o.normal_map).resolve())
-        if path not in maps:
+        tex = texture_files(cfg, o.material) if with_features else (None, None)
+        if (path, tex) not in maps:
             stem = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(path).stem) or "map"
             name, i = stem, 1
             while name in names:
                 i += 1
                 name = f"{stem}-{i}"
             names.add(name)
-            maps[path] = {"name": name, "path": o.normal_map, "key": f"scene.objects.{k}."
-                          "normal_map", "objects": []}
-        maps[path]["objects"].append(o.name)
+            maps[(path, tex)] = {"name": name, "path": o.normal_map, "key": f"scene.objects."
+                                 f"{k}.normal_map", "objects": [], "textures": tex}
+        maps[(path, tex)]["objects"].append(o.name)
     return list(maps.values())
 
 
@@ -60,11 +65,17 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
     check_object_uvs(cfg)
     texels = [read_normal_texels(m["path"], m["key"]) for m in maps]   # validated before writing
     normals = [decode_normals(t) for t in texels]
+    features = _features(maps, normals)                 # validated before writing, too
     params = {"normalmap": to_plain(cfg.normalmap),
               "maps": [{"name": m["name"], "objects": m["objects"],
-                        "file": getattr(m["path"], "relative", str(m["path"]))} for m in maps]}
-    with StageRun(cfg, Path(out_dir), "normalmap", params=params,
-                  inputs=[m["path"] for m in maps], force=force) as run:
+                        "file": getattr(m["path"], "relative", str(m["path"])),
+                        **({"colour_textures": [Path(p).name if p else None
+                                                for p in m["textures"]]}
+                           if f is not None else {})}
+                       for m, f in zip(maps, features)]}
+    inputs = [m["path"] for m in maps] + sorted({p for m in maps for p in m["textures"] if p})
+    with StageRun(cfg, Path(out_dir), "normalmap", params=params, inputs=inputs,
+                  force=force) as run:
         if run.skipped:
             return run
         from sgpipe.normalmap.vmf import VMFSettings, progress_steps
@@ -77,14 +88,28 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
                      if "vmf" in nm.methods else 0) + 2 for n in normals)
         bar = _bar(steps)
         try:
-            for m, n, t in zip(maps, normals, texels):
-                run.report[m["name"]] = _process(run, nm, settings, m["name"], n, t, bar)
+            for m, n, t, ft in zip(maps, normals, texels, features):
+                run.report[m["name"]] = _process(run, nm, settings, m["name"], n, t, ft, bar)
         finally:
             if bar:
                 bar.render_finish()
         from sgpipe.artifacts.normalmap import INDEX
         run.write_json(INDEX, {"maps": params["maps"]})
     return run
+
+
+def _features(maps: list[dict], normals: list) -> list:
+    """Per map its (n, n, 6) colour features (Han07 eq 22; normalmap.colour_features) or
+    None."""
+    from sgpipe.normalmap.features import map_features
+    from sgpipe.render.setup import read_texture
+    cache: dict = {}
+
+    def read(path, key):
+        if path not in cache:
+            cache[path] = read_texture(path, key)
+        return cache[path]
+    return [map_features(*m["textures"], n.shape[0], read) for m, n in zip(maps, normals)]
 
 
 def _pyramids(normals: np.ndarray, texels: np.ndarray, sub: int, levels):
@@ -113,7 +138,7 @@ def _sh_map(lmax: int):
 
 
 def _process(run: StageRun, nm, settings, name: str, normals: np.ndarray, texels: np.ndarray,
-             bar) -> dict:
+             features: np.ndarray | None, bar) -> dict:
     from sgpipe.artifacts import normalmap as art
     from sgpipe.normalmap import pyramid as P
     from sgpipe.normalmap import quality as Q
@@ -153,10 +178,10 @@ def _process(run: StageRun, nm, settings, name: str, normals: np.ndarray, texels
     tick()
     if "vmf" in nm.methods:
         t = time.perf_counter()
-        pyr = fit_vmf_pyramid(normals, settings, progress=tick, fine=fine)
+        pyr = fit_vmf_pyramid(normals, settings, progress=tick, fine=fine, features=features)
         run.timings[f"{name}.vmf_s"] = time.perf_counter() - t
         art.write_vmf(run, name, pyr.alpha, pyr.alpha_r, kappa_max=nm.kappa_max,
-                      aligned=nm.align)
+                      aligned=nm.align, alpha_f=pyr.alpha_f)
         shade["vmf"] = [Q.vmf_level(a, ar, s, h) for a, ar in zip(pyr.alpha, pyr.alpha_r)]
     rows = [r for r in METHOD_ROWS if r in shade]
     errors = {r: [round(Q.rel_rms(np.asarray(shade[r][lev]), shade["truth"][lev]), 6)

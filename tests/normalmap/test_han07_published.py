@@ -135,17 +135,23 @@ def test_kernel_eq25_is_a_furnace():
 
 
 def _two_level_pyramid():
-    """Level 0: 2×2 texels of four different normals (delta lobes); level 1: their one-lobe
-    vMF, mean normal and its length — so that the trilinear blend, the box, level 0's taps and
-    the environment paths all differ."""
+    """Level 0: 2×2 texels of four different normals (delta lobes) and colours (eq 22's
+    features, kd and ks multipliers); level 1: their one-lobe vMF, mean normal, its length and
+    mean colour — so that the trilinear blend, the box, level 0's taps, the environment paths
+    and the lobes' colours all differ."""
     n0 = unit(np.array([[[0.5, 0.0, 1.0], [-0.3, 0.2, 1.0]], [[0.0, -0.6, 1.0], [0.1, 0.4, 1.0]]]))
     a0 = np.ones((2, 2, 1), np.float32)
     ar0 = n0[:, :, None, :].astype(np.float32)
+    f0 = np.array([[[0.9, 0.2, 0.1, 1.0, 0.5, 0.5], [0.1, 0.3, 0.8, 0.2, 0.2, 0.3]],
+                   [[0.5, 0.5, 0.5, 0.6, 0.9, 0.4], [0.2, 0.9, 0.2, 0.8, 0.8, 0.8]]])
     mean1 = n0.reshape(-1, 3).mean(0)
     a1 = np.ones((1, 1, 1), np.float32)
     ar1 = mean1.reshape(1, 1, 1, 3).astype(np.float32)
+    af = [f0[:, :, None, :].astype(np.float32),
+          f0.reshape(-1, 6).mean(0).reshape(1, 1, 1, 6).astype(np.float32)]
     return NormalMapPyramid([a0, a1], [ar0, ar1], [n0.astype(np.float32),
-                                                   mean1.reshape(1, 1, 3).astype(np.float32)])
+                                                   mean1.reshape(1, 1, 3).astype(np.float32)],
+                            alpha_f=af)
 
 
 def test_adds_give_vmf_back_one_switch_at_a_time():

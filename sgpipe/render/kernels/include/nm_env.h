@@ -190,12 +190,13 @@ inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 
 
 /* The environment's point set (records (c_k, ·), (E_k, ·): a sun, the brightest texels) as
  * directional lights of irradiance E_k: Σ_k f̂_h(SSDF at c_k) E_k Σ_j w_j ρ_j(o, c_k)(n_j·c_k)
- * with each lobe's exact BRDF (nm_spec), as the `sg` and `gmm` methods shade the point set. A
- * lobe's Gaussian fall-off as an SG in i-space bends and narrows a sun's highlight at grazing
- * views, where the reflected lobe is far from an isotropic SG. */
-inline float3 nm_points(__global const float *m, float3 ks, int model, const float4 *ax,
-                        const float4 *lp, int nlob, float3 o, float3 T, float3 B, float3 N,
-                        const Vis *vis, __global const float4 *pts, int n_pts) {
+ * with each lobe's exact BRDF (nm_spec, lobe j's specular colour lks[j]), as the `sg` and `gmm`
+ * methods shade the point set. A lobe's Gaussian fall-off as an SG in i-space bends and
+ * narrows a sun's highlight at grazing views, where the reflected lobe is far from an
+ * isotropic SG. */
+inline float3 nm_points(__global const float *m, const float3 *lks, int model,
+                        const float4 *ax, const float4 *lp, int nlob, float3 o, float3 T,
+                        float3 B, float3 N, const Vis *vis, __global const float4 *pts, int n_pts) {
     float3 acc = (float3)(0.0f);
     if (model == NM_LAMBERT) return acc;
     for (int k = 0; k < n_pts; ++k) {
@@ -213,7 +214,7 @@ inline float3 nm_points(__global const float *m, float3 ks, int model, const flo
                                                                   1e-12f);
             if (model == NM_GGX || model == NM_GLTF) x = 2.0f * log1p(x);
             if (ch <= 0.0f || x > NM_POINT_CUT) continue;
-            spec += lp[j].x * nm_spec(m, ks, model, n, o, c, lp[j].y, lp[j].z, lp[j].w,
+            spec += lp[j].x * nm_spec(m, lks[j], model, n, o, c, lp[j].y, lp[j].z, lp[j].w,
                                       ax[j].w);
         }
         if (spec.x + spec.y + spec.z <= 0.0f) continue;

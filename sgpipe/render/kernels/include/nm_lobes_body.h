@@ -8,6 +8,7 @@
     float lrl[NM_MAX_AX];         /* vmf: each lobe's mean resultant length A(κ) */
 #endif
     float4 lp[NM_MAX_AX];         /* (weight, e, norm, a) */
+    float3 lkd[NM_MAX_AX], lks[NM_MAX_AX];   /* each lobe's kd, ks (eq 22; else the pixel's) */
     int nlob = 0;
     float bnorm = 0.25f * (s + 2.0f) / (s + 1.0f) * NM_INV_2PI;   /* × (s′ + 1): eq 20 */
 #if NM_FILTER == NM_VMF
@@ -25,16 +26,30 @@
     if (!info.w) {
         ax[0] = (float4)(N, 1.0f); lp[0] = (float4)(1.0f, s, bnorm * (s + 1.0f), s); nlob = 1;
         lrl[0] = 1.0f;
+        lkd[0] = kd; lks[0] = ks;
     } else {
         for (int k = 0; at0 && k < n0c; ++k) {               /* level 0: bilinear normals */
             float3 nk = to_world(n0s[k].yzw, T, B, N);
             float ln = length(nk);
             if (n0s[k].x <= 0.0f || ln <= 0.0f) continue;
             float wt = (1.0f - f) * (n0s[k].x / (float)ntap);
-            if (nm_merge_tap(ax, lp, 0, nlob, nk / ln, wt,
-                             (float4)(1.0f, s, bnorm * (s + 1.0f), s))) continue;
+            float3 ckd = kd, cks = ks;
+            if (feat) {
+                float4 c0 = n0f[2 * k] / n0s[k].x, c1 = n0f[2 * k + 1] / n0s[k].x;
+                ckd = c0.xyz;               /* the textures' values; × kd, ks below */
+                cks = (float3)(c0.w, c1.x, c1.y);
+            }
+            int jm = nm_merge_tap(ax, lp, 0, nlob, nk / ln, wt,
+                                  (float4)(1.0f, s, bnorm * (s + 1.0f), s));
+            if (jm) {                       /* the merged lobe's colour: weighted mean */
+                float u = wt / lp[jm - 1].x;
+                lkd[jm - 1] += (ckd - lkd[jm - 1]) * u;
+                lks[jm - 1] += (cks - lks[jm - 1]) * u;
+                continue;
+            }
             ax[nlob] = (float4)(nk / ln, 1.0f);
             lp[nlob] = (float4)(wt, s, bnorm * (s + 1.0f), s);
+            lkd[nlob] = ckd; lks[nlob] = cks;
             ++nlob;
         }
         n0l = nlob;
@@ -54,13 +69,36 @@
             /* D amplitude (Cook–Torrance); GGX: −κ, the material's D convolved (nm_mf_d) */
             float da = model == NM_GGX || model == NM_GLTF ? -kappa : s * s / a2;
             float4 par = (float4)(da, sp, bnorm * (sp + 1.0f), sqrt(a2));
+            float3 ckd = kd, cks = ks;
+            if (feat) {                     /* eq 22: the lobe's own features T(α·f)/T(α) */
+                float4 c0 = fea[2 * j], c1 = fea[2 * j + 1];
+                if (nbx > 0) {
+                    int4 lv = nm_levels[l0];
+                    int fo = lv.x + lv.y * lv.y * info.z + 2 * (bidx[j / nl] * info.z + j % nl);
+                    c0 = bw[j / nl] * nm_data[fo];
+                    c1 = bw[j / nl] * nm_data[fo + 1];
+                }
+                ckd = c0.xyz / t.x;
+                cks = (float3)(c0.w, c1.x, c1.y) / t.x;
+            }
             /* the box's texels repeat on a periodic map: their equal lobes shade once */
-            if (nm_merge_tap(ax, lp, n0l, nlob, mu, t.x, par)) continue;
+            int jm = nm_merge_tap(ax, lp, n0l, nlob, mu, t.x, par);
+            if (jm) {
+                float u = t.x / lp[jm - 1].x;
+                lkd[jm - 1] += (ckd - lkd[jm - 1]) * u;
+                lks[jm - 1] += (cks - lks[jm - 1]) * u;
+                continue;
+            }
             lrl[nlob] = fmin(lr, 1.0f);
             ax[nlob] = (float4)(mu, par.x);
             lp[nlob] = (float4)(t.x, par.yzw);
+            lkd[nlob] = ckd; lks[nlob] = cks;
             ++nlob;
         }
+    }
+    for (int j = 0; feat && j < nlob; ++j) {   /* eq 22: the material's kd, ks × features */
+        lkd[j] *= mat3(m, MAT_KD);
+        lks[j] *= mat3(m, MAT_KS);
     }
 #elif NM_FILTER == NM_SH
     /* level 0's taps (lobes 0 … n0l − 1: the bare material at the bilinear normal), then for
@@ -73,6 +111,7 @@
         float3 q = nm_single_lobe(NM_MIP, info.w, 1.0f, s, bnorm, &amp);
         ax[nlob] = (float4)(nk / ln, amp);
         lp[nlob] = (float4)((1.0f - f) * (n0s[k].x / (float)ntap), q.x, q.y, q.z);
+        lkd[nlob] = kd; lks[nlob] = ks;
         ++nlob;
     }
     n0l = nlob;
@@ -81,6 +120,7 @@
         float3 q = nm_single_lobe(NM_SH, info.w, rlobe, s, bnorm, &amp);
         ax[nlob] = (float4)(nbar, amp);
         lp[nlob] = (float4)(at0 ? f : 1.0f, q.x, q.y, q.z);
+        lkd[nlob] = kd; lks[nlob] = ks;
         ++nlob;
     }
 #else
@@ -102,6 +142,7 @@
             if (at0 && nm_merge_tap(ax, lp, 0, nlob, ak, wk, (float4)(amp, q))) continue;
             ax[nlob] = (float4)(ak, amp);
             lp[nlob] = (float4)(wk, q.x, q.y, q.z);
+            lkd[nlob] = kd; lks[nlob] = ks;
             ++nlob;
         }
     }

@@ -64,6 +64,7 @@
 #define NM_GGX 4            /* GGX, separable Smith G1·G1 (model `ggx`) */
 #define NM_GLTF 5           /* GGX, height-correlated Smith G2 (`gltf_pbr`: its diffuse too) */
 #define NM_LIGHT_LAMBDA 2e4f  /* delta lights' sharpness for the SSDF horizon (shading.h cap) */
+#define NM_FEAT_SLOT 12     /* nm_brdf: the pyramid carries colour features (eq 22) */
 #define NM_FOOT_SLOT 14     /* nm_brdf: render.normalmap_footprint (0 trilinear, 1 box) */
 #define NM_LSTAR_SLOT 15    /* nm_brdf: Han07 §5's l* ≈ √(4s) (normalmap_data.published_sh_order) */
 #define NM_BOX_TEXELS 9     /* box footprint: texels of its level it may overlap */
@@ -159,7 +160,7 @@ inline float3 nm_single_lobe(int filter, int has_map, float rl, float s, float b
 /* Level 0's taps as lobes: a tap whose unit normal n lies within NM_MERGE_COS of the axis of a
  * lobe j in [from, n) with the same parameters (D amplitude, e, norm, a = par) adds its weight
  * w to that lobe instead of becoming one (the taps on a flat facet of the map share one
- * normal); 1 when merged. */
+ * normal); j + 1 when merged (the caller blends the tap's colour in), else 0. */
 #define NM_MERGE_COS 0.99995f   /* 0.01 rad */
 inline int nm_merge_tap(float4 *ax, float4 *lp, int from, int n, float3 nk, float w,
                         float4 par) {
@@ -169,7 +170,7 @@ inline int nm_merge_tap(float4 *ax, float4 *lp, int from, int n, float3 nk, floa
             float w0 = lp[j].x;
             ax[j].xyz = normalize(w0 * ax[j].xyz + w * nk);
             lp[j].x = w0 + w;
-            return 1;
+            return j + 1;
         }
     }
     return 0;
@@ -203,6 +204,24 @@ inline float4 nm_trilinear(__global const float4 *d, __global const int4 *lev, i
         v = v * (1.0f - f) + w * f;
     }
     return v;
+}
+
+/* Trilinear fetch of lobe j's colour features (eq 22: α_j·kd.rgb, α_j·ks.r in *c0,
+ * α_j·ks.gb in *c1) between levels l0 and l1 with weight f; the block follows each level's J
+ * lobes. */
+inline void nm_feat_trilinear(__global const float4 *d, __global const int4 *lev, int l0,
+                              int l1, float f, int nlobes, int j, float2 uv, float4 *c0,
+                              float4 *c1) {
+    int4 a = lev[l0];
+    int o = a.x + a.y * a.y * nlobes;
+    *c0 = nm_bilinear(d, o, a.y, 2 * nlobes, 2 * j, uv);
+    *c1 = nm_bilinear(d, o, a.y, 2 * nlobes, 2 * j + 1, uv);
+    if (f > 0.0f) {
+        int4 b = lev[l1];
+        int q = b.x + b.y * b.y * nlobes;
+        *c0 = *c0 * (1.0f - f) + f * nm_bilinear(d, q, b.y, 2 * nlobes, 2 * j, uv);
+        *c1 = *c1 * (1.0f - f) + f * nm_bilinear(d, q, b.y, 2 * nlobes, 2 * j + 1, uv);
+    }
 }
 
 /* Raise a unit direction to elevation ≥ asin(zmin) about the unit axis n (shading.h's lift in

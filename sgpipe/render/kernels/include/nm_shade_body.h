@@ -23,6 +23,7 @@
     int l0 = 0, l1 = 0, ntap = 1, nx = 1;
     float f = 0.0f;
     float2 uv0 = uv, du = (float2)(0.0f), dv = (float2)(0.0f);
+    float4 tduv = gduv[gid];       /* one tap's share of the footprint (its colour's filter) */
     /* Box footprint (render.normalmap_footprint = box): the pixel's box filter (the
      * reference's) over the map, instead of trilinear's tent of twice the pixel. The box
      * has the footprint's extent along u and v, w_u = |(∂u/∂x, ∂u/∂y)|, w_v likewise (the
@@ -77,6 +78,7 @@
             ntap = nx * ny;
             du = duv.xy / (float)nx;
             dv = duv.zw / (float)ny;
+            tduv = (float4)(du, dv);
             uv0 = uv - 0.5f * (duv.xy + duv.zw) + 0.5f * (du + dv);
         } else {
             int m = nm_levels[l0].y;
@@ -102,6 +104,7 @@
             uv0 = uv - du * (0.5f - 0.5f / (float)ntap);
             du /= (float)ntap;
             nx = ntap;
+            tduv = lx >= ly ? (float4)(du, duv.zw) : (float4)(duv.xy, du);
         }
         l0 = (int)floor(lod);
         l1 = min(l0 + 1, info.y - 1);
@@ -116,6 +119,10 @@
     float4 lob[NM_MAX_LOBES];
     int nl = min(info.z, NM_MAX_LOBES);
     for (int j = 0; j < nl; ++j) lob[j] = (float4)(0.0f);
+    /* eq 22: each lobe's colour features α_j·(kd, ks) (two float4), filtered as α_j is */
+    int feat = info.w && bp[NM_FEAT_SLOT] > 0.5f;
+    float4 fea[2 * NM_MAX_LOBES];
+    for (int j = 0; j < 2 * nl; ++j) fea[j] = (float4)(0.0f);
     /* Where level 0 takes part (weight 1 − f), its texels are read as the renderer and the
      * reference read the map — the bilinearly interpolated normal, one sharp lobe per tap —
      * instead of eq 24's bilinear mix of the texels' delta lobes (which blurs every texel
@@ -128,8 +135,8 @@
     int at0 = info.w && l0 == info.x;
 #endif
     int n0c = min(ntap, NM_MAX_L0);
-    float4 n0s[NM_MAX_L0];
-    for (int k = 0; k < n0c; ++k) n0s[k] = (float4)(0.0f);
+    float4 n0s[NM_MAX_L0], n0f[2 * NM_MAX_L0];    /* level 0's taps: normals, colour sums */
+    for (int k = 0; k < n0c; ++k) n0s[k] = n0f[2 * k] = n0f[2 * k + 1] = (float4)(0.0f);
 #endif
 #if NM_FILTER != NM_VMF && NM_FILTER != NM_SH
     /* box at level 0: each tap's bilinear mean normal its own lobe (the method's formula at
@@ -199,14 +206,38 @@
                 int4 lv = nm_levels[l0];
                 float4 nb = nm_bilinear(nm_data, lv.z, lv.y, 1, 0, uvk);
                 n0s[k % NM_MAX_L0] += (float4)(1.0f, nb.xyz);
+                /* the tap's colour: the colour textures themselves over the tap's share of
+                 * the footprint, as the reference reads them beside the bilinear normal (any
+                 * texture resolution; the features hold the map's grid) */
+                if (feat) {
+                    float4 ck = kdt_ >= 0 ? tex_filtered(texels, texinfo[kdt_], texaff, kdt_,
+                                                         uvk, tduv) : (float4)(1.0f);
+                    float4 cs = kst_ >= 0 ? tex_filtered(texels, texinfo[kst_], texaff, kst_,
+                                                         uvk, tduv) : (float4)(1.0f);
+                    n0f[2 * (k % NM_MAX_L0)] += (float4)(ck.xyz, cs.x);
+                    n0f[2 * (k % NM_MAX_L0) + 1] += (float4)(cs.y, cs.z, 0.0f, 0.0f);
+                }
                 if (f > 0.0f) {
                     int4 lw = nm_levels[l1];
-                    for (int j = 0; j < nl; ++j)
+                    for (int j = 0; j < nl; ++j) {
                         lob[j] += f * nm_bilinear(nm_data, lw.x, lw.y, info.z, j, uvk);
+                        if (!feat) continue;
+                        float4 c0, c1;
+                        nm_feat_trilinear(nm_data, nm_levels, l1, l1, 0.0f, info.z, j, uvk,
+                                          &c0, &c1);
+                        fea[2 * j] += f * c0;
+                        fea[2 * j + 1] += f * c1;
+                    }
                 }
             } else {
-                for (int j = 0; j < nl; ++j)
+                for (int j = 0; j < nl; ++j) {
                     lob[j] += nm_trilinear(nm_data, nm_levels, l0, l1, f, 0, info.z, j, uvk);
+                    if (!feat) continue;
+                    float4 c0, c1;
+                    nm_feat_trilinear(nm_data, nm_levels, l0, l1, f, info.z, j, uvk, &c0, &c1);
+                    fea[2 * j] += c0;
+                    fea[2 * j + 1] += c1;
+                }
             }
 #endif
 #if NM_FILTER == NM_SH
@@ -230,6 +261,7 @@
         rbake /= (float)ntap;
 #if NM_FILTER == NM_VMF
         for (int j = 0; j < nl; ++j) lob[j] /= (float)ntap;
+        for (int j = 0; j < 2 * nl; ++j) fea[j] /= (float)ntap;
 #endif
 #if NM_FILTER == NM_SH
         for (int k = 0; k < nsh; ++k) g[k] /= (float)ntap;
@@ -279,20 +311,30 @@
                                      &vis);
 #elif defined(NM_PUB_SH_DIFFUSE)
             /* vmf_han07: eq 25 per lobe, level 0's taps (κ = ∞) included */
-            float3 ed = (float3)(0.0f);
-            for (int j = 0; j < nlob; ++j)
-                ed += lp[j].x * nm_sh8_diffuse(nm_env_sh8, ax[j].xyz,
-                                               j < n0l ? 1e30f : nm_kappa_of(lrl[j]));
-            acc += kd * MF_INV_PI * fmax(ed * env_scale, 0.0f);
+            float3 ed = (float3)(0.0f), edc = (float3)(0.0f);
+            for (int j = 0; j < nlob; ++j) {
+                float3 e = lp[j].x * nm_sh8_diffuse(nm_env_sh8, ax[j].xyz,
+                                                    j < n0l ? 1e30f : nm_kappa_of(lrl[j]));
+                ed += e;
+                edc += lkd[j] * e;                  /* eq 22: each lobe in its colour */
+            }
+            acc += feat ? MF_INV_PI * fmax(edc * env_scale, 0.0f)
+                        : kd * MF_INV_PI * fmax(ed * env_scale, 0.0f);
 #else
             /* linear in the NDF (eq 5), as the lights' diffuse: level 0's taps at n̄ as unit
              * normals; the coarser part per lobe — the NM_DIFF_LOBES heaviest lobes j at their
              * own axes μ_j with weight α_j A(κ_j) (facets that turn away from part of the sky
              * see less of it than n̄ does), the rest of the mean, n̄₁ − Σ α_j A_j μ_j, at its
              * direction */
-            float3 ed = (float3)(0.0f), rest = mean1;
+            float3 ed = (float3)(0.0f), rest = mean1, kd0 = kd;
+            if (feat && n0l > 0) {          /* level 0's taps: their weighted mean colour */
+                float w0 = 0.0f;
+                kd0 = (float3)(0.0f);
+                for (int j = 0; j < n0l; ++j) { kd0 += lp[j].x * lkd[j]; w0 += lp[j].x; }
+                kd0 /= w0;
+            }
             if (at0 && f < 1.0f)
-                ed = (1.0f - f) * nm_env_diffuse_at(m, kd, o, nbar, T, B, N, env_sg, n_env_sg,
+                ed = (1.0f - f) * nm_env_diffuse_at(m, kd0, o, nbar, T, B, N, env_sg, n_env_sg,
                                                     env_scale, &vis);
             int used[NM_DIFF_LOBES];
             for (int u = 0; n_env_sg > 0 && u < NM_DIFF_LOBES; ++u) {
@@ -307,7 +349,7 @@
                 used[u] = best;
                 if (best < 0) break;
                 rest -= wbest * ax[best].xyz;
-                ed += wbest * nm_env_diffuse_at(m, kd, o, ax[best].xyz, T, B, N, env_sg,
+                ed += wbest * nm_env_diffuse_at(m, lkd[best], o, ax[best].xyz, T, B, N, env_sg,
                                                 n_env_sg, env_scale, &vis);
             }
             float lrest = length(rest);
@@ -323,7 +365,7 @@
     if (env_on && model != NM_LAMBERT) {
         float3 es = (float3)(0.0f);
         for (int j = 0; j < nlob; ++j)
-            es += lp[j].x * nm_sh8_factor(m, ks, model, ax[j].xyz, o, lp[j].w)
+            es += lp[j].x * nm_sh8_factor(m, lks[j], model, ax[j].xyz, o, lp[j].w)
                   * fmax(nm_sh8_specular(nm_env_sh8, bp + NM_RHO_SLOT, o, ax[j].xyz,
                                          j < n0l ? 1e30f : nm_kappa_of(lrl[j])), 0.0f);
         acc += env_scale * es;
@@ -331,14 +373,14 @@
 #else
     if (env_on) {
         for (int j = 0; j < nlob; ++j)
-            acc += lp[j].x * nm_spec_env(m, ks, model, ax[j].xyz, o, lp[j].y, lp[j].z, lp[j].w,
+            acc += lp[j].x * nm_spec_env(m, lks[j], model, ax[j].xyz, o, lp[j].y, lp[j].z, lp[j].w,
                                          ax[j].w, T, B, N, &vis, pyr, pyr_off, pyr_res, pyr_lam,
                                          pyr_n, pyr_log_ratio, env_mean.xyz, pyr_pts,
                                          NM_EXACT_POINTS ? 0 : n_pts, pyr_raw, raw_n, env_scale);
         /* the point set (a sun) as directional lights: every lobe's exact BRDF at each point,
          * shadowed at the point's own direction (nm_points) */
         if (NM_EXACT_POINTS)
-            acc += env_scale * nm_points(m, ks, model, ax, lp, nlob, o, T, B, N, &vis,
+            acc += env_scale * nm_points(m, lks, model, ax, lp, nlob, o, T, B, N, &vis,
                                          pyr_pts, n_pts);
     }
 #endif
@@ -361,6 +403,9 @@
         if (vis.has) E *= fh_hat(vis_theta(&vis, to_local(i, T, B, N)), NM_LIGHT_LAMBDA);
         float3 spec = (float3)(0.0f);
         float diff;
+#if NM_FILTER == NM_VMF
+        float3 dcol;                  /* with colour features: Σ lobes' kd × cosine */
+#endif
 #if NM_FILTER == NM_SH
         if (nsh > 0) {
             int ld = min(lsh, 2);
@@ -376,8 +421,8 @@
             for (int j = 0; j < n0l; ++j) {            /* level 0's taps */
                 diff += lp[j].x * fmax(dot(ax[j].xyz, i), 0.0f);
                 if (model != NM_LAMBERT)
-                    spec += lp[j].x * nm_spec(m, ks, model, ax[j].xyz, o, i, lp[j].y, lp[j].z,
-                                              lp[j].w, ax[j].w);
+                    spec += lp[j].x * nm_spec(m, lks[j], model, ax[j].xyz, o, i, lp[j].y,
+                                              lp[j].z, lp[j].w, ax[j].w);
             }
             if (model != NM_LAMBERT) {
                 float3 ol = nm_lift(o, nbar, 0.01f);
@@ -403,19 +448,38 @@
 #if NM_FILTER == NM_VMF
             diff = fmax(dot(mean1, i), 0.0f);
             for (int j = 0; j < n0l; ++j) diff += lp[j].x * fmax(dot(ax[j].xyz, i), 0.0f);
+            if (feat) {
+                /* eq 22: each lobe's cosine in its colour — the coarse lobes at their mean
+                 * resultant α_j A(κ_j) μ_j, the rest of n̄₁ (what the lobes leave of the
+                 * linear mean) in the plain MIP colour */
+                float3 rest = mean1;
+                dcol = (float3)(0.0f);
+                for (int j = 0; j < nlob; ++j) {
+                    float3 r = lp[j].x * (j < n0l ? 1.0f : lrl[j]) * ax[j].xyz;
+                    if (j >= n0l) rest -= r;
+                    dcol += lkd[j] * fmax(dot(r, i), 0.0f);
+                }
+                dcol += kd * fmax(dot(rest, i), 0.0f);
+            }
 #else
             diff = 0.0f;              /* one lobe at n̄, or box level 0's taps */
             for (int j = 0; j < nlob; ++j) diff += lp[j].x * fmax(dot(ax[j].xyz, i), 0.0f);
 #endif
             for (int j = 0; j < nlob; ++j)
-                spec += lp[j].x * nm_spec(m, ks, model, ax[j].xyz, o, i, lp[j].y, lp[j].z,
+                spec += lp[j].x * nm_spec(m, lks[j], model, ax[j].xyz, o, i, lp[j].y, lp[j].z,
                                           lp[j].w, ax[j].w);
         }
+        float gd = 1.0f;
         if (model == NM_GLTF) {   /* glTF's diffuse under the F0 0.04 coat: o·h does not
                                    * depend on the normal, one factor for every lobe */
             float xh = 1.0f - clamp(dot(o, normalize(o + i)), 0.0f, 1.0f), x2 = xh * xh;
-            diff *= 0.96f * (1.0f - x2 * x2 * xh);
+            gd = 0.96f * (1.0f - x2 * x2 * xh);
+            diff *= gd;
         }
-        acc += (kd * (diff * MF_INV_PI) + spec) * E;
+        float3 dk = kd * (diff * MF_INV_PI);
+#if NM_FILTER == NM_VMF
+        if (feat) dk = dcol * (gd * MF_INV_PI);
+#endif
+        acc += (dk + spec) * E;
     }
     out[gid] = (float4)(acc, 1.0f);
