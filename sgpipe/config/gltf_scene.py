@@ -29,9 +29,10 @@ def _unique(name: str, taken: set[str], tag: str) -> str:
 
 
 #: which methods read which glTF textures: the per-pixel parameters the reference, sg, fis, gmm
-#: (isotropic materials) and transport (its BRDF lobes and diffuse colour; its Gaussians are
-#: fitted for the factors); the others render the material's factors; the normal and emissive
-#: textures every method that renders `gltf_pbr`
+#: (isotropic materials), transport (its BRDF lobes and diffuse colour; its Gaussians are
+#: fitted for the factors) and the normal-map methods (filtered over the footprint); the
+#: others render the material's factors; the normal and emissive textures every method that
+#: renders `gltf_pbr`
 PER_PIXEL_TEXTURES = ("baseColorTexture", "metallicRoughnessTexture")
 EVERY_METHOD_TEXTURES = ("normalTexture", "emissiveTexture")
 #: KHR_materials_anisotropy's texture: its direction every method that turns the BRDF frame,
@@ -47,7 +48,7 @@ def _texture_note(textures: list[str]) -> str:
     unread = [t for t in textures
               if t not in PER_PIXEL_TEXTURES + EVERY_METHOD_TEXTURES + (ANISOTROPY_TEXTURE,)]
     if per_pixel:
-        parts.append(f"reference, sg, fis, gmm and transport read its "
+        parts.append(f"reference, sg, fis, gmm, transport and the normal-map methods read its "
                      f"{' and '.join(per_pixel)}, the other methods its factors")
     if every:
         parts.append(f"every method reads its {' and '.join(every)}")

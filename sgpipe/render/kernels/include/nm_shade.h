@@ -412,7 +412,9 @@ inline void nm_sh_rotate9(const float *g, float3 t, float3 b, float3 n, float *w
  * normal-map fetch and quaternion, which these methods replace by the filtered pyramids):
  * threads past n return; locals N, T, B, x, uv, kd, ks (their textures filtered over the
  * pixel's footprint, as sg, gmm and fis read them: the plain MIP of the colour), m, ob and the
- * SSDF state `vis` (off under FLAG_NO_VISIBILITY). */
+ * SSDF state `vis` (off under FLAG_NO_VISIBILITY). A textured gltf_pbr material's record is
+ * the pixel's (shading.h gltf_pixel_record: base colour, metallic and roughness filtered over
+ * the footprint; sv_ = 1), as sg reads it. */
 #define NM_PIXEL_PROLOGUE \
     int gid = get_global_id(0); \
     if (gid >= n) return; \
@@ -421,6 +423,12 @@ inline void nm_sh_rotate9(const float *g, float3 t, float3 b, float3 n, float *w
     float2 uv = guv[gid]; \
     int8 ob = objs[gobj[gid]]; \
     __global const float *m = mats + OBJ_MAT(ob) * MAT_STRIDE; \
+    int sv_ = m[MAT_BCTEX] >= 0.0f || m[MAT_MRTEX] >= 0.0f; \
+    if (sv_) { \
+        __global float *r_ = pxmat + gid * MAT_STRIDE; \
+        gltf_pixel_record(m, r_, texels, texinfo, texaff, uv, gduv[gid], 1.0f); \
+        m = r_; \
+    } \
     float3 kd = mat3(m, MAT_KD), ks = mat3(m, MAT_KS); \
     int kdt_ = (int)m[MAT_KDTEX], kst_ = (int)m[MAT_KSTEX]; \
     if (kdt_ >= 0) kd *= tex_filtered(texels, texinfo[kdt_], texaff, kdt_, uv, gduv[gid]).xyz; \

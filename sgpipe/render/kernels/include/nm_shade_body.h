@@ -13,6 +13,7 @@
     __global const float *bp = nm_brdf + NM_BRDF_STRIDE * obj;
     float s = bp[0];                       /* Blinn–Phong exponent or microfacet roughness */
     int model = (int)bp[2];
+    if (sv_ && model == NM_GLTF) s = m[MAT_AV];   /* the pixel's filtered roughness */
     int env_on = bp[13] > 0.0f && !(flags & FLAG_NO_ENV_SPECULAR);
     float3 o = normalize(to_world(lift(to_local(gview[gid].xyz, T, B, N), 0.01f), T, B, N));
 
