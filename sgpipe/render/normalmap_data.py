@@ -13,7 +13,8 @@ two float4 (α_j·kd.rgb, α_j·ks.r), (α_j·ks.g, α_j·ks.b, 0, 0) at the lob
 the plain MIP of the normals (mean.xyz, |mean|) per texel, then the SH
 NDF coefficients γ_lm (⌈K/4⌉ float4 per texel, K = (l* + 1)², zero-padded).
 `nm_levels` int4 per (map, level): (lobe offset, side, mean offset, SH offset). `nm_info` int4
-per scene object: (first level row, levels, lobes J, has map). `nm_brdf` NM_BRDF_STRIDE floats
+per scene object: (first level row, levels, lobes J, has map: 1 + 2·clamp u + 4·clamp v, a
+glTF sampler's CLAMP_TO_EDGE per axis, else repeat). `nm_brdf` NM_BRDF_STRIDE floats
 per object: Blinn–Phong exponent s or microfacet roughness (Beckmann, GGX α, Cook–Torrance m),
 max taps along the footprint's major axis (1: isotropic), model (BRDF_MODELS), K (slots 0–3);
 the pyramid has colour features (1/0, slot 12); environment specular on (1/0, slot 13),
@@ -61,6 +62,7 @@ class NormalMapPyramid:
     mean: list
     gamma: list | None = None
     alpha_f: list | None = None
+    wrap: tuple = ("repeat", "repeat")      # per axis u, v: "repeat" or "clamp"
 
     @classmethod
     def load(cls, nm_dir: Path, name: str, *, need_vmf: bool = True,
@@ -140,7 +142,8 @@ class NormalMapData:
                     levels.append((off, m, off + len(lob), off + len(lob) + len(mn)))
                     parts += [lob, mn, sh]
                     off += len(lob) + len(mn) + len(sh)
-                seen[id(p)] = (first, len(p.alpha), p.alpha[0].shape[2], 1)
+                seen[id(p)] = (first, len(p.alpha), p.alpha[0].shape[2],
+                               1 + 2 * (p.wrap[0] == "clamp") + 4 * (p.wrap[1] == "clamp"))
             info.append(seen[id(p)])
             if p.gamma is not None:
                 nsh[k] = int(np.asarray(p.gamma[0]).shape[-1])
@@ -197,19 +200,23 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
     index = nm_dir / "index.json"
     objs = cfg.scene.objects
     methods = set(cfg.render.methods)
-    if any(o.normal_map is not None for o in objs) and not index.is_file():
+    from sgpipe.render.setup import has_gltf_normal_texture
+    assets: dict = {}
+    mapped = [o.normal_map is not None or has_gltf_normal_texture(cfg, o, assets) for o in objs]
+    if any(mapped) and not index.is_file():
         raise BadInput("normal-map pyramids not found: add a `normalmap:` section and run "
                        "`sgpipe precompute` (or `sgpipe run`) with the same --out",
                        file=index, key="normalmap")
-    by_object = {}
+    by_object, wrap = {}, {}
     if index.is_file():
         for entry in json.loads(index.read_text())["maps"]:
+            wrap[entry["name"]] = tuple(entry.get("wrap", ("repeat", "repeat")))
             for name in entry["objects"]:
                 by_object[name] = entry["name"]
     cache: dict = {}
     pyramids = []
     for k, o in enumerate(objs):
-        if o.normal_map is None:
+        if not mapped[k]:
             pyramids.append(None)
             continue
         name = by_object.get(o.name)
@@ -220,6 +227,7 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
             cache[name] = NormalMapPyramid.load(nm_dir, name,
                                                 need_vmf=bool(methods & VMF_METHODS),
                                                 need_sh=bool(methods & SH_METHODS))
+            cache[name].wrap = wrap[name]
         pyramids.append(cache[name])
         if "nm_sh_han07" in methods:
             stored = int(round(math.sqrt(cache[name].gamma[0].shape[-1]))) - 1

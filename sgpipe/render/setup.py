@@ -223,6 +223,12 @@ def _gltf_material(cfg, obj, assets: dict):
     return spec, asset, ref.material
 
 
+def has_gltf_normal_texture(cfg, obj, assets: dict) -> bool:
+    """Does a scene object without a `normal_map` render a glTF material's normal texture?"""
+    found = None if obj.normal_map is not None else _gltf_material(cfg, obj, assets)
+    return found is not None and found[1].doc.materials[found[2]].normalTexture is not None
+
+
 def gltf_normal_texture(cfg, obj, assets: dict):
     """The normal texture of an object's glTF material (as `_gltf_material`), its `scale`
     applied to the stored texels (c' = ((2c − 1)(s, s, 1) + 1) / 2, so that the decode

@@ -23,7 +23,10 @@ def collect_maps(cfg) -> list[dict]:
     """Distinct normal-map files of the scene in config order: {name, path, key, objects,
     textures}; a map's name is its file stem (made unique with -2, -3 … when stems collide).
     With `normalmap.colour_features`, objects whose materials have different colour textures
-    (kd_map, ks_map) get distinct pyramids of the same map: the textures are its features."""
+    (kd_map, ks_map) get distinct pyramids of the same map: the textures are its features.
+    Then the glTF materials' normal textures (`normalmap.gltf_maps.gltf_normal_maps`: with
+    their decoded `texels` and samplers' `wrap`)."""
+    from sgpipe.normalmap.gltf_maps import gltf_normal_maps
     from sgpipe.normalmap.features import texture_files
     maps: dict[tuple, dict] = {}
     names: set[str] = set()
@@ -43,7 +46,7 @@ def collect_maps(cfg) -> list[dict]:
             maps[(path, tex)] = {"name": name, "path": o.normal_map, "key": f"scene.objects."
                                  f"{k}.normal_map", "objects": [], "textures": tex}
         maps[(path, tex)]["objects"].append(o.name)
-    return list(maps.values())
+    return list(maps.values()) + gltf_normal_maps(cfg, names)
 
 
 def _bar(total: int):
@@ -60,15 +63,18 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
     from sgpipe.normalmap.read import check_object_uvs, decode_normals, read_normal_texels
     maps = collect_maps(cfg)
     if not maps:
-        log("[normalmap] no scene object has a normal_map; nothing to do")
+        log("[normalmap] no scene object has a normal_map or a glTF normal texture; nothing "
+            "to do")
         return None
     check_object_uvs(cfg)
-    texels = [read_normal_texels(m["path"], m["key"]) for m in maps]   # validated before writing
+    texels = [m["texels"] if "texels" in m else read_normal_texels(m["path"], m["key"])
+              for m in maps]                                    # validated before writing
     normals = [decode_normals(t) for t in texels]
     features = _features(maps, normals)                 # validated before writing, too
     params = {"normalmap": to_plain(cfg.normalmap),
               "maps": [{"name": m["name"], "objects": m["objects"],
                         "file": getattr(m["path"], "relative", str(m["path"])),
+                        **({"wrap": m["wrap"]} if "wrap" in m else {}),
                         **({"colour_textures": [Path(p).name if p else None
                                                 for p in m["textures"]]}
                            if f is not None else {})}

@@ -35,7 +35,7 @@ def _inputs(cfg, out_dir: Path) -> list[Path]:
     """Upstream manifests (they hash every artifact) and the files the scene names."""
     files = [out_dir / s / "manifest.json"
              for s in ("fit", "envmap", "visibility", "transport", "normalmap")
-             if getattr(cfg, s) is not None]
+             if getattr(cfg, s) is not None and (s != "normalmap" or _normal_mapped(cfg))]
     for o in cfg.scene.objects if cfg.scene is not None else []:
         files += object_files(o) + ([Path(o.normal_map)] if o.normal_map else [])
     for t in cfg.render.material_textures:
@@ -46,6 +46,15 @@ def _inputs(cfg, out_dir: Path) -> list[Path]:
         if m.merl_file:
             files.append(Path(m.merl_file))
     return files
+
+
+def _normal_mapped(cfg) -> bool:
+    """Does a scene object carry a normal map (its own or its glTF material's)? Without one
+    the normalmap stage has nothing to write."""
+    from sgpipe.render.setup import has_gltf_normal_texture
+    assets: dict = {}
+    return any(o.normal_map is not None or has_gltf_normal_texture(cfg, o, assets)
+               for o in (cfg.scene.objects if cfg.scene is not None else []))
 
 
 def _time_method(renderer, method, frame_dev, repeats, **kw):
@@ -73,7 +82,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     out_dir = Path(out_dir)
     rs = cfg.render
     for stage, cmd, sections in UPSTREAM:
-        if getattr(cfg, stage) is None:
+        if getattr(cfg, stage) is None or (stage == "normalmap" and not _normal_mapped(cfg)):
             continue
         if not (out_dir / stage / "manifest.json").is_file():
             raise BadInput(f"no {stage} artifacts here: run `sgpipe {cmd}` (or `sgpipe run`) "

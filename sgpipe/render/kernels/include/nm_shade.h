@@ -91,6 +91,14 @@ inline float4 nm_bilinear(__global const float4 *d, int off, int m, int stride, 
     return a * (1.0f - fy) + b * fy;
 }
 
+/* A glTF sampler's CLAMP_TO_EDGE axes (nm_info.w bits 1 and 2): the UV held inside [0, 1]
+ * (the texels within half a texel of the edge still blend with the opposite edge). */
+inline float2 nm_wrap_uv(float2 uv, int w) {
+    if (w & 2) uv.x = clamp(uv.x, 0.0f, 1.0f);
+    if (w & 4) uv.y = clamp(uv.y, 0.0f, 1.0f);
+    return uv;
+}
+
 /* Box footprint along one texel axis: the interval [c − w/2, c + w/2] (texel units of a level
  * of side m, texel k covering [k, k + 1), repeat addressing) over the texels it overlaps: their
  * indices (wrapped) and weights overlap / w (summing to 1), at most `cap`; the count, or cap + 1
@@ -412,14 +420,15 @@ inline void nm_sh_rotate9(const float *g, float3 t, float3 b, float3 n, float *w
  * normal-map fetch and quaternion, which these methods replace by the filtered pyramids):
  * threads past n return; locals N, T, B, x, uv, kd, ks (their textures filtered over the
  * pixel's footprint, as sg, gmm and fis read them: the plain MIP of the colour), m, ob and the
- * SSDF state `vis` (off under FLAG_NO_VISIBILITY). A textured gltf_pbr material's record is
- * the pixel's (shading.h gltf_pixel_record: base colour, metallic and roughness filtered over
- * the footprint; sv_ = 1), as sg reads it. */
+ * SSDF state `vis` (off under FLAG_NO_VISIBILITY). The map's +y runs along B = w (n × t),
+ * w the tangent's handedness (as pixel_init reads every normal map). A textured gltf_pbr
+ * material's record is the pixel's (shading.h gltf_pixel_record: base colour, metallic and
+ * roughness filtered over the footprint; sv_ = 1), as sg reads it. */
 #define NM_PIXEL_PROLOGUE \
     int gid = get_global_id(0); \
     if (gid >= n) return; \
     float3 N = gnrm[gid].xyz, T = gtan[gid].xyz; \
-    float3 B = cross(N, T), x = gpos[gid].xyz; \
+    float3 B = cross(N, T) * (gtan[gid].w < 0.0f ? -1.0f : 1.0f), x = gpos[gid].xyz; \
     float2 uv = guv[gid]; \
     int8 ob = objs[gobj[gid]]; \
     __global const float *m = mats + OBJ_MAT(ob) * MAT_STRIDE; \

@@ -10,6 +10,7 @@
     NM_PIXEL_PROLOGUE;
     int obj = gobj[gid];
     int4 info = nm_info[obj];
+    uv = nm_wrap_uv(uv, info.w);
     __global const float *bp = nm_brdf + NM_BRDF_STRIDE * obj;
     float s = bp[0];                       /* Blinn–Phong exponent or microfacet roughness */
     int model = (int)bp[2];
@@ -191,7 +192,8 @@
         mean_t = (float3)(0.0f);
         rbake = 0.0f;
         for (int k = 0; k < ntap; ++k) {
-            float2 uvk = uv0 + (float)(k % nx) * du + (float)(k / nx) * dv;
+            float2 uvk = nm_wrap_uv(uv0 + (float)(k % nx) * du + (float)(k / nx) * dv,
+                                    info.w);
             float4 mk4 = nm_trilinear(nm_data, nm_levels, l0, l1, f, 1, 1, 0, uvk);
             float3 mk = mk4.xyz;
             mean_t += mk;
