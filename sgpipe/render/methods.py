@@ -248,6 +248,10 @@ PUBLISHED_SWITCHES = {"sg_wang09": WANG09_SWITCHES, "gmm_toral19": TORAL19_SWITC
 NORMALMAP_METHODS = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh", "vmf_han07",
                      "nm_sh_han07")
 
+#: the normal-map kernels: the pyramids, and the material's NDF lobes (MAX_NDF_LOBES) for the
+#: bare material's environment specular through the `sg` method's lobes (nm_shade_body.h)
+NM_KERNEL = {"needs_normalmap": True, "defines": ("MAX_NDF_LOBES",)}
+
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("sg", "Wang09 SG + SSDF shadows", "sg_shade",
            (PIXEL_PARAMS, SG_PARAMS, TAIL_PARAMS), defines=("MAX_NDF_LOBES",),
@@ -281,26 +285,24 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            needs_transport=True, needs_ndf_table=True,
            fixed_defines=every_define(GREEN06_SWITCHES)),
     Method("vmf", "Han07 vMF-filtered normal map (Algorithm 2, eq 20–21 lights, eq 24–26 "
-           "environment)", "vmf_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS),
-           needs_normalmap=True),
+           "environment)", "vmf_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), **NM_KERNEL),
     # Han07 §7–8 as published: vmf's kernel with every switch of HAN07_SWITCHES (docs/HAN07.md)
     Method("vmf_han07", "Han07 as published (trilinear eq 24 lookup, eq 20–21 lights, §8 SH "
            "environment at l* = 8)", "vmf_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS),
-           needs_normalmap=True,
-           fixed_defines=every_define(HAN07_SWITCHES)),
+           fixed_defines=every_define(HAN07_SWITCHES), **NM_KERNEL),
     Method("normals_mip", "normalised MIP of the normal map (Han07 baseline)", "nmip_shade",
-           (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
+           (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), **NM_KERNEL),
     Method("toksvig", "Toksvig-scaled exponent (roughness) from the MIP normal length",
-           "toksvig_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
+           "toksvig_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), **NM_KERNEL),
     Method("engine_bake", "engine roughness bake: one lobe, κ from the MIP normal length, "
            "α′ = √(α² + 2/κ)", "bake_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS),
-           needs_normalmap=True),
+           **NM_KERNEL),
     Method("nm_sh", "Han07 §5 SH-filtered normal map (eq 12: γ_lm × ρ̂_l)", "nmsh_shade",
-           (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True),
+           (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), **NM_KERNEL),
     # Han07 §5 as published: nm_sh's kernel with every switch of HAN07_SH_SWITCHES
     Method("nm_sh_han07", "Han07 §5 as published (trilinear γ_lm, eq 12 at l* = ⌈√(4s)⌉)",
-           "nmsh_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS), needs_normalmap=True,
-           fixed_defines=every_define(HAN07_SH_SWITCHES)),
+           "nmsh_shade", (PIXEL_PARAMS, NM_PARAMS, TAIL_PARAMS),
+           fixed_defines=every_define(HAN07_SH_SWITCHES), **NM_KERNEL),
 )}
 
 #: `render.methods` choices: the OpenCL methods and the Monte Carlo ground truth.

@@ -111,8 +111,9 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
     from sgpipe.render.energy import adopt_grid_lobes, attach_energy
     for m in mats:                   # whichever methods run: they read the same lobes
         adopt_grid_lobes(m)
-    if any(x.name in ("sg", "sg_wang09") for x in methods):
-        attach_energy(mats)          # sg's energy tables of GGX materials
+    if any(x.name in ("sg", "sg_wang09") or x.needs_normalmap for x in methods):
+        attach_energy(mats)          # sg's energy tables of GGX materials (the normal-map
+        #                              methods' bare GGX lobes under the environment, too)
     shading = []
     for k, o in enumerate(cfg.scene.objects):
         nmap = -1

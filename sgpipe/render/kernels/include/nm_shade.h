@@ -45,6 +45,8 @@
 #ifndef SGPIPE_NM_SHADE_H
 #define SGPIPE_NM_SHADE_H
 #include "ggx_conv.h"
+#include "asg.h"
+#include "sg_specular.h"    /* the bare GGX material's environment specular (sg's lobes) */
 
 #define NM_VMF 0
 #define NM_MIP 1

@@ -375,11 +375,30 @@
     }
 #else
     if (env_on) {
-        for (int j = 0; j < nlob; ++j)
-            acc += lp[j].x * nm_spec_env(m, lks[j], model, ax[j].xyz, o, lp[j].y, lp[j].z, lp[j].w,
-                                         ax[j].w, T, B, N, &vis, pyr, pyr_off, pyr_res, pyr_lam,
-                                         pyr_n, pyr_log_ratio, env_mean.xyz, pyr_pts,
+        for (int j = 0; j < nlob; ++j) {
+            if ((model == NM_GGX || model == NM_GLTF) && ax[j].w == 1.0f && lp[j].w == s) {
+                /* the bare GGX material about a normal (level 0's taps, the plain MIP's
+                 * lobe): the `sg` method's specular at that normal — the material's NDF
+                 * lobes, each warped to three sub-lobes, energy-scaled — which holds GGX's
+                 * tail where one SG of the peak-matched roughness loses it at grazing views */
+                float4 q = quat_from_z(normalize(to_local(ax[j].xyz, T, B, N)));
+                float4 qi = quat_conj(q);
+                float3 op = lift(normalize(quat_rotate(qi, lift(to_local(o, T, B, N), 0.01f))),
+                                 0.01f);
+                float3 es[SHARP_CACHE];
+                acc += lp[j].x * sg_lobes_specular(m, lobes, tables, lks[j], op, q, qi, T, B, N,
+                                                   x, &vis, 1, NM_EXACT_POINTS, 1, pyr, pyr_off,
+                                                   pyr_res, pyr_lam, pyr_n, pyr_log_ratio,
+                                                   env_mean, pyr_raw, raw_n, pyr_pts,
+                                                   NM_EXACT_POINTS ? 0 : n_pts, env_scale,
+                                                   lights, 0, es);
+                continue;
+            }
+            acc += lp[j].x * nm_spec_env(m, lks[j], model, ax[j].xyz, o, lp[j].y, lp[j].z,
+                                         lp[j].w, ax[j].w, T, B, N, &vis, pyr, pyr_off, pyr_res,
+                                         pyr_lam, pyr_n, pyr_log_ratio, env_mean.xyz, pyr_pts,
                                          NM_EXACT_POINTS ? 0 : n_pts, pyr_raw, raw_n, env_scale);
+        }
         /* the point set (a sun) as directional lights: every lobe's exact BRDF at each point,
          * shadowed at the point's own direction (nm_points) */
         if (NM_EXACT_POINTS)
