@@ -48,7 +48,8 @@ def _texture_note(textures: list[str]) -> str:
               if t not in PER_PIXEL_TEXTURES + EVERY_METHOD_TEXTURES + (ANISOTROPY_TEXTURE,)]
     if per_pixel:
         parts.append(f"reference, sg, fis, gmm and transport read its "
-                     f"{' and '.join(per_pixel)}, the other methods its factors")
+                     f"{' and '.join(per_pixel)} (transport_green06 filtered to the "
+                     f"transport mesh's vertices), the other methods its factors")
     if every:
         parts.append(f"every method reads its {' and '.join(every)}")
     if ANISOTROPY_TEXTURE in textures:

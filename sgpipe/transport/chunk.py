@@ -32,6 +32,7 @@ from sgpipe.transport.sampling import (PathScene, indirect_exits, light_cube,
                                        vertex_indirect_transport, vertex_transport,
                                        vertex_visibility)
 from sgpipe.transport.sh_transfer import interreflected_transfer, texel_basis, transfer_vector
+from sgpipe.transport.vertex_material import VertexMaterials
 from sgpipe.transport.views import view_set
 from sgpipe.visibility.trace import scene_from_file
 
@@ -95,6 +96,9 @@ class TransportTask:
     #: transport.flood_fill "mesh": the fits (mu, sigma, w) of this chunk's vertices'
     #: neighbours that earlier chunks fitted, by global vertex
     prior: "dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] | None" = None
+    #: per vertex of `order` its own material (transport.vertex_materials on a textured
+    #: gltf_pbr object: vertex_material.VertexMaterials), or None: every vertex the BRDF above
+    vertex_materials: "VertexMaterials | None" = None
 
 
 @dataclass
@@ -161,8 +165,11 @@ def run_chunk(task: TransportTask) -> TransportResult:
         res.w_open = np.zeros((n, 92, K, 3))
     ind = task.indirect
     done: dict[int, int] = {}         # global vertex → row of res
+    vmat = task.vertex_materials
     for i in range(n):
         t0 = time.perf_counter()
+        if vmat is not None:      # the vertex's own BRDF (Green06 Fig 1's varying material)
+            brdf = make_brdf("gltf_pbr", vmat.brdf_params(i))
         nrm, tan, bit = task.normals[i], task.tangents[i], task.bitangents[i]
         vis = vertex_visibility(scene, task.positions[i], nrm, cube.dirs, task.offset)
         res.sh[i] = transfer_vector(basis, cube, nrm, vis)
