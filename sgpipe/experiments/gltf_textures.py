@@ -5,8 +5,8 @@ and metallic-roughness textures minified k = 1, 2, 4, 8 and 16 times (KHR_textur
 scale k, samplers repeating: k² times the texels under each pixel),
 rendered under the studio map by `sg`, `fis` and `gmm` (per-pixel parameters from the
 MIP-filtered textures), by `transport` and `transport_green06` (with the visibility and
-transport stages, in a run of their own; per-vertex materials filtered to the vertex spacing) and by the Monte Carlo `reference` (the unfiltered
-textures at each sample's hit); the asset without its normal texture (`smooth`: the textured
+transport stages, in a run of their own; per-vertex materials filtered to the vertex spacing)
+and by the Monte Carlo `reference` (the unfiltered textures at each sample's hit); the asset without its normal texture (`smooth`: the textured
 parameters alone); as a control, a sphere in uniform metal and dielectric materials of
 roughness 0.1–0.9; and gmm's error, fit time and storage against its count of roughness entries
 (fit.view_gmm_rough).

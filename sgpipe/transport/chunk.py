@@ -5,10 +5,12 @@ order. Per vertex: trace visibility over the light cube and its SH transfer; the
 chunk (or, with `TransportTask.prior`, fitted by an earlier chunk) and holding the fitted
 neighbours' means in the spatial term (Green06 §4.2's flood fill) —, with `sampling: lobe`
 sample each view's specular lobe and set its Gaussians from those samples (`lobe_fit`). The
-transport itself is never stored: it lives for one vertex. With `TransportTask.indirect` the indirect glossy part T^IG (eq 5) is added to T before the fit
-and the interreflected SH transfer is kept beside the shadowed one; each vertex's random
-numbers come from its own generator seeded by (config seed, object, vertex), so no result
-depends on which chunk or worker a vertex fell into.
+transport itself is never stored: it lives for one vertex. With `TransportTask.indirect` the
+indirect glossy part T^IG (eq 5) is added to T before the fit and the interreflected SH
+transfer is kept beside the shadowed one; each vertex's random numbers come from its own
+generator seeded by (config seed, object, vertex), so no result depends on which chunk or
+worker a vertex fell into. With `TransportTask.vertex_materials` each vertex's transport is
+that of its own BRDF (a textured material filtered to the vertex spacing: `vertex_material`).
 
 Chunks depend only on their inputs (never on the worker count), so the artifacts are the same
 bytes for any number of workers; with transport.flood_fill "mesh" a chunk's inputs include

@@ -135,3 +135,43 @@ def test_per_vertex_fit_renders_each_half_as_its_uniform_material(tmp_path, meth
             return np.abs(a[rows][:, sel] - want).mean() / np.abs(want).mean()
         assert err(img) <= 0.03, (tag, err(img))
         assert err(plain) >= 0.2, (tag, err(plain))
+
+
+STAGE = """
+name: vm
+seed: 1
+workers: {workers}
+scene: {{gltf: [{{file: {glb}}}]}}
+transport: {{cube_resolution: 4, lobe_samples: 16, chunk_vertices: 16, report_vertices: 0,
+             vertex_materials: {vm}}}
+"""
+
+
+def _stage(tmp_path, glb, tag, *, workers=1, vm="true"):
+    from sgpipe.config import load_config
+    from sgpipe.stages import transport as stage
+    cfg = tmp_path / f"{tag}.yaml"
+    cfg.write_text(STAGE.format(workers=workers, glb=glb, vm=vm))
+    out = tmp_path / tag
+    stage.run(load_config(cfg), out)
+    obj = f"{glb.stem}.quad.0"
+    return {p.name: p.read_bytes() for p in sorted((out / "transport" / obj).glob("*.npz"))}
+
+
+def test_per_vertex_stage_is_deterministic_and_untextured_objects_are_unchanged(tmp_path):
+    """The textured grid's artifacts (vertex_material.npz included) are the same bytes for 1
+    and 2 workers over 16-vertex chunks and differ from the factors' fit only in the
+    Gaussians; an untextured material's artifacts are the same bytes with per-vertex materials
+    on and off (no vertex_material.npz)."""
+    from sgpipe.artifacts.transport import GAUSSIANS, VERTEX_MATERIALS
+    tex, uniform = halves_grids(tmp_path)
+    one = _stage(tmp_path, tex, "w1")
+    assert one == _stage(tmp_path, tex, "w2", workers=2)
+    plain = _stage(tmp_path, tex, "factors", vm="false")
+    assert VERTEX_MATERIALS in one and VERTEX_MATERIALS not in plain
+    assert one[GAUSSIANS] != plain[GAUSSIANS]
+    assert {k: v for k, v in one.items() if k not in (GAUSSIANS, VERTEX_MATERIALS)} == \
+        {k: v for k, v in plain.items() if k != GAUSSIANS}
+    on = _stage(tmp_path, uniform["a"], "a_on")
+    assert on == _stage(tmp_path, uniform["a"], "a_off", vm="false")
+    assert VERTEX_MATERIALS not in on
