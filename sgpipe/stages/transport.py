@@ -38,6 +38,8 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     geoms = load_scene(cfg.scene, sphere_subdivisions=t.sphere_subdivisions)
     _check_meshes(cfg, geoms)
     materials = [_material(cfg, i, o.material) for i, o in enumerate(cfg.scene.objects)]
+    # the textures are decoded with the other bad-input checks, before the stage starts
+    vmats = _vertex_materials(cfg, geoms)
     inputs = [f for o in cfg.scene.objects for f in object_files(o)]
     inputs += [m.merl_file for m in (cfg.fit.materials if cfg.fit else []) if m.merl_file]
     params = {"transport": to_plain(t), "scene": to_plain(cfg.scene),
@@ -45,7 +47,7 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     with StageRun(cfg, out_dir, "transport", params=params, inputs=inputs, force=force) as run:
         if run.skipped:
             return run
-        _run(cfg, run, run.scratch_dir(), geoms, materials, _vertex_materials(cfg, geoms))
+        _run(cfg, run, run.scratch_dir(), geoms, materials, vmats)
     return run
 
 

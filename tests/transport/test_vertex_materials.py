@@ -175,3 +175,20 @@ def test_per_vertex_stage_is_deterministic_and_untextured_objects_are_unchanged(
     on = _stage(tmp_path, uniform["a"], "a_on")
     assert on == _stage(tmp_path, uniform["a"], "a_off", vm="false")
     assert VERTEX_MATERIALS not in on
+
+
+def test_missing_texture_is_bad_input_and_nothing_is_written(tmp_path):
+    """A textured object whose image is missing: one BadInput naming the image, no artifacts."""
+    from sgpipe.config import load_config
+    from sgpipe.errors import BadInput
+    from sgpipe.stages import transport as stage
+    doc = grid_quad({"baseColorTexture": gb.halves(gb.HALF_A, gb.HALF_B)})
+    doc.images[0].bufferView = None
+    doc.images[0].uri = "missing.png"
+    glb = gb.write_glb(doc, tmp_path / "q.glb")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(STAGE.format(workers=1, glb=glb, vm="true"))
+    with pytest.raises(BadInput) as e:
+        stage.run(load_config(cfg), tmp_path / "out")
+    assert e.value.key == "images[0]" and "missing.png" in e.value.message
+    assert not (tmp_path / "out" / "transport").exists()
