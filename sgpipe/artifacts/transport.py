@@ -16,6 +16,8 @@ GAUSSIANS = "gaussians.npz"
 OPEN = "open_"
 SH_TRANSFER = "sh_transfer.npz"
 GEOMETRY = "geometry.npz"
+#: per-vertex materials of a textured gltf_pbr object (transport.vertex_materials)
+VERTEX_MATERIALS = "vertex_material.npz"
 REPORT = "report.json"
 
 
@@ -49,6 +51,14 @@ def write_object(sink, obj: str, *, packed: dict, cube_resolution: int, gaussian
     sink.write_npz(object_file(obj, GEOMETRY), {
         "positions": np.asarray(positions, f), "normals": np.asarray(normals, f),
         "faces": np.asarray(faces, np.int32)})
+
+
+def write_vertex_materials(sink, obj: str, *, kd, f0, roughness) -> None:
+    """The per-vertex material each vertex's Gaussians were fitted with (rows in geometry.npz's
+    vertex order): kd (X, 3), Schlick F0 (X, 3), roughness (X,), float32."""
+    f = np.float32
+    sink.write_npz(object_file(obj, VERTEX_MATERIALS), {
+        "kd": np.asarray(kd, f), "f0": np.asarray(f0, f), "roughness": np.asarray(roughness, f)})
 
 
 # -- readers (the renderer, tests) -------------------------------------------------------------
@@ -128,6 +138,13 @@ def read_gaussians(folder: str | Path, obj: str, *, open_set: bool = False):
     return decode_open_gaussians(arrays) if open_set else decode_gaussians(arrays)
 
 
+def read_vertex_materials(folder: str | Path, obj: str) -> dict | None:
+    """{kd, f0, roughness} of vertex_material.npz, or None where the object's Gaussians were
+    fitted with its material's factors (no file)."""
+    path = Path(folder) / object_file(obj, VERTEX_MATERIALS)
+    return read_npz(path) if path.is_file() else None
+
+
 def read_sh_transfer(folder: str | Path, obj: str) -> tuple[np.ndarray, np.ndarray]:
     """(shadowed transfer (X, 25) float32 in the world-frame real SH of sgpipe.core.sh,
     diffuse f_d RGB): direct diffuse radiance = f_d · Σ_k L_k t_k (no interreflection:
@@ -163,8 +180,8 @@ def read_sh_transfer_rgb(folder: str | Path, obj: str) -> tuple[np.ndarray, np.n
     return full, fd
 
 
-__all__ = ["GAUSSIANS", "OPEN", "SH_TRANSFER", "GEOMETRY", "REPORT", "object_file",
-           "write_object",
+__all__ = ["GAUSSIANS", "OPEN", "SH_TRANSFER", "GEOMETRY", "VERTEX_MATERIALS", "REPORT",
+           "object_file", "write_object", "write_vertex_materials", "read_vertex_materials",
            "read_packed_gaussians", "read_sh_transfer", "read_sh_transfer_rgb",
            "read_sh_transfer_parts", "N_VIEWS",
            "oct_decode", "sigma_decode", "unpack_views", "decode_gaussians",

@@ -29,9 +29,9 @@ def _unique(name: str, taken: set[str], tag: str) -> str:
 
 
 #: which methods read which glTF textures: the per-pixel parameters the reference, sg, fis, gmm
-#: (isotropic materials), transport (its BRDF lobes and diffuse colour; its Gaussians are
-#: fitted for the factors) and the normal-map methods (filtered over the footprint); the
-#: others render the material's factors; the normal and emissive textures every method that
+#: (isotropic materials), transport (its BRDF lobes and diffuse colour; its Gaussians fitted
+#: per vertex with the textures filtered there) and the normal-map methods (filtered over the
+#: footprint); the others render the material's factors; the normal and emissive textures every method that
 #: renders `gltf_pbr`
 PER_PIXEL_TEXTURES = ("baseColorTexture", "metallicRoughnessTexture")
 EVERY_METHOD_TEXTURES = ("normalTexture", "emissiveTexture")
@@ -49,7 +49,8 @@ def _texture_note(textures: list[str]) -> str:
               if t not in PER_PIXEL_TEXTURES + EVERY_METHOD_TEXTURES + (ANISOTROPY_TEXTURE,)]
     if per_pixel:
         parts.append(f"reference, sg, fis, gmm, transport and the normal-map methods read its "
-                     f"{' and '.join(per_pixel)}, the other methods its factors")
+                     f"{' and '.join(per_pixel)} (transport_green06 filtered to the "
+                     f"transport mesh's vertices), the other methods its factors")
     if every:
         parts.append(f"every method reads its {' and '.join(every)}")
     if ANISOTROPY_TEXTURE in textures:

@@ -38,6 +38,8 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     geoms = load_scene(cfg.scene, sphere_subdivisions=t.sphere_subdivisions)
     _check_meshes(cfg, geoms)
     materials = [_material(cfg, i, o.material) for i, o in enumerate(cfg.scene.objects)]
+    # the textures are decoded with the other bad-input checks, before the stage starts
+    vmats = _vertex_materials(cfg, geoms)
     inputs = [f for o in cfg.scene.objects for f in object_files(o)]
     inputs += [m.merl_file for m in (cfg.fit.materials if cfg.fit else []) if m.merl_file]
     params = {"transport": to_plain(t), "scene": to_plain(cfg.scene),
@@ -45,8 +47,20 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     with StageRun(cfg, out_dir, "transport", params=params, inputs=inputs, force=force) as run:
         if run.skipped:
             return run
-        _run(cfg, run, run.scratch_dir(), geoms, materials)
+        _run(cfg, run, run.scratch_dir(), geoms, materials, vmats)
     return run
+
+
+def _vertex_materials(cfg, geoms) -> list:
+    """Per object its per-vertex materials (transport.vertex_materials on a textured,
+    isotropic gltf_pbr material: vertex_material.VertexMaterials), else None."""
+    if not cfg.transport.vertex_materials:
+        return [None] * len(geoms)
+    from sgpipe.render.setup import gltf_textures
+    from sgpipe.transport.vertex_material import vertex_materials
+    assets: dict = {}
+    return [vertex_materials(gltf_textures(cfg, o, assets), g)
+            for o, g in zip(cfg.scene.objects, geoms)]
 
 
 def _check_meshes(cfg, geoms) -> None:
@@ -95,7 +109,7 @@ def _material(cfg, index: int, name: str):
     return spec, spec.model, params, brdf.diffuse(z, z)
 
 
-def _run(cfg, run: StageRun, tmp: Path, geoms, materials) -> None:
+def _run(cfg, run: StageRun, tmp: Path, geoms, materials, vmats) -> None:
     t = cfg.transport
     allp = np.concatenate([g.positions for g in geoms])
     diag = float(np.linalg.norm(allp.max(0) - allp.min(0)))
@@ -128,13 +142,17 @@ def _run(cfg, run: StageRun, tmp: Path, geoms, materials) -> None:
                                        tng[o], b[o], [adj[i] for i in o], model, params,
                                        t.cube_resolution, offset, opts,
                                        float(np.sin(np.radians(t.min_view_elevation_deg))),
-                                       ind, t.sampling, t.lobe_samples))
+                                       ind, t.sampling, t.lobe_samples,
+                                       vertex_materials=None if vmats[k] is None
+                                       else vmats[k].rows(o)))
             owner.append(k)
     n_vert = sum(len(g.positions) for g in geoms)
     log(f"[transport] {len(geoms)} objects, {n_vert} vertices × 92 views, "
         f"{t.gaussians} Gaussian(s), "
         + (f"{t.lobe_samples} lobe samples per view, " if t.sampling == "lobe" else "")
         + f"light cube 6×{t.cube_resolution}²"
+        + "".join(f", {g.name}: per-vertex material" for g, v in zip(geoms, vmats)
+                  if v is not None)
         + (f", indirect ({t.indirect_bounces} bounces, {t.indirect_paths} paths per view, "
            f"{t.indirect_transfer_paths} per occluded texel)" if t.indirect else ""))
     t0 = time.perf_counter()
@@ -154,7 +172,8 @@ def _run(cfg, run: StageRun, tmp: Path, geoms, materials) -> None:
     objects = {}
     for k, (g, mat) in enumerate(zip(geoms, materials)):
         objects[g.name] = _write_object(run, cfg, g, mat,
-                                        [r for r, o in zip(results, owner) if o == k])
+                                        [r for r, o in zip(results, owner) if o == k],
+                                        vmats[k])
     for name, o in objects.items():
         parts = [f"{c} {v['mean']:.3f} ({v['vertices']})"
                  for c, v in o["fit_rel_err_by_class"].items() if v["vertices"]]
@@ -185,7 +204,7 @@ def _mesh_flood_fill(tasks, owner, desc: str) -> list:
     return results
 
 
-def _write_object(run, cfg, g, mat, results) -> dict:
+def _write_object(run, cfg, g, mat, results, vmat=None) -> dict:
     t = cfg.transport
     n, K = len(g.positions), t.gaussians
     mu, sigma = np.zeros((n, 92, K, 3)), np.zeros((n, 92, K))
@@ -215,11 +234,15 @@ def _write_object(run, cfg, g, mat, results) -> dict:
     artifacts.write_object(run, g.name, packed=packed, cube_resolution=t.cube_resolution,
                            gaussians=K, sh=sh, sh_indirect=sh_ind, diffuse_rgb=mat[3],
                            positions=g.positions, normals=g.normals, faces=g.faces)
+    if vmat is not None:
+        artifacts.write_vertex_materials(run, g.name, kd=vmat.kd, f0=vmat.f0,
+                                         roughness=vmat.roughness)
     nbytes, paper = compact.nbytes(packed), compact.paper_bytes(n, K)
     open_bytes = compact.nbytes({k: v for k, v in packed.items()
                                  if k.startswith(artifacts.OPEN)})
     return {
-        "vertices": int(n), "compact_bytes": nbytes, "paper_bytes": paper,
+        "vertices": int(n), "vertex_materials": vmat is not None,
+        "compact_bytes": nbytes, "paper_bytes": paper,
         "compact_over_paper": nbytes / paper,
         # of compact_bytes, the unshadowed Gaussians (sampling: lobe; the vertices an
         # occluder reaches)

@@ -5,10 +5,12 @@ order. Per vertex: trace visibility over the light cube and its SH transfer; the
 chunk (or, with `TransportTask.prior`, fitted by an earlier chunk) and holding the fitted
 neighbours' means in the spatial term (Green06 §4.2's flood fill) —, with `sampling: lobe`
 sample each view's specular lobe and set its Gaussians from those samples (`lobe_fit`). The
-transport itself is never stored: it lives for one vertex. With `TransportTask.indirect` the indirect glossy part T^IG (eq 5) is added to T before the fit
-and the interreflected SH transfer is kept beside the shadowed one; each vertex's random
-numbers come from its own generator seeded by (config seed, object, vertex), so no result
-depends on which chunk or worker a vertex fell into.
+transport itself is never stored: it lives for one vertex. With `TransportTask.indirect` the
+indirect glossy part T^IG (eq 5) is added to T before the fit and the interreflected SH
+transfer is kept beside the shadowed one; each vertex's random numbers come from its own
+generator seeded by (config seed, object, vertex), so no result depends on which chunk or
+worker a vertex fell into. With `TransportTask.vertex_materials` each vertex's transport is
+that of its own BRDF (a textured material filtered to the vertex spacing: `vertex_material`).
 
 Chunks depend only on their inputs (never on the worker count), so the artifacts are the same
 bytes for any number of workers; with transport.flood_fill "mesh" a chunk's inputs include
@@ -32,6 +34,7 @@ from sgpipe.transport.sampling import (PathScene, indirect_exits, light_cube,
                                        vertex_indirect_transport, vertex_transport,
                                        vertex_visibility)
 from sgpipe.transport.sh_transfer import interreflected_transfer, texel_basis, transfer_vector
+from sgpipe.transport.vertex_material import VertexMaterials
 from sgpipe.transport.views import view_set
 from sgpipe.visibility.trace import scene_from_file
 
@@ -95,6 +98,9 @@ class TransportTask:
     #: transport.flood_fill "mesh": the fits (mu, sigma, w) of this chunk's vertices'
     #: neighbours that earlier chunks fitted, by global vertex
     prior: "dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] | None" = None
+    #: per vertex of `order` its own material (transport.vertex_materials on a textured
+    #: gltf_pbr object: vertex_material.VertexMaterials), or None: every vertex the BRDF above
+    vertex_materials: "VertexMaterials | None" = None
 
 
 @dataclass
@@ -161,8 +167,11 @@ def run_chunk(task: TransportTask) -> TransportResult:
         res.w_open = np.zeros((n, 92, K, 3))
     ind = task.indirect
     done: dict[int, int] = {}         # global vertex → row of res
+    vmat = task.vertex_materials
     for i in range(n):
         t0 = time.perf_counter()
+        if vmat is not None:      # the vertex's own BRDF (Green06 Fig 1's varying material)
+            brdf = make_brdf("gltf_pbr", vmat.brdf_params(i))
         nrm, tan, bit = task.normals[i], task.tangents[i], task.bitangents[i]
         vis = vertex_visibility(scene, task.positions[i], nrm, cube.dirs, task.offset)
         res.sh[i] = transfer_vector(basis, cube, nrm, vis)

@@ -66,6 +66,12 @@ class TransportSection:
                                         "view raised to this elevation (the views around a "
                                         "grazing pixel's view include them).", 1.0, ge=0,
                                         lt=30)
+    vertex_materials: bool = doc("Objects in a textured `gltf_pbr` material (base-colour or "
+                                 "metallic-roughness texture, isotropic): fit each vertex's "
+                                 "glossy transport with its own BRDF, the textures filtered to "
+                                 "the vertex spacing (Green06 Fig 1's spatially varying "
+                                 "material). false: every vertex takes the material's factors.",
+                                 True)
     vertex_limit: int = doc("Largest vertex count per object; a larger mesh is bad input "
                             "(the cost grows with vertices × 92 views × light texels).", 50000,
                             ge=1)

@@ -28,8 +28,10 @@
  * Local lights (render.lights): see tp_light_glossy and shading.h sg_light_diffuse.
  * Textured materials: the BRDF's lobes, the delta lights' exact BRDF and the diffuse colour
  * f_d are the pixel's own (pixel_init's record from the filtered textures); the Gaussians
- * (the ratio's occlusion, and `transport_green06`'s glossy part) are the stage's, fitted for the
- * material's factors.
+ * (the ratio's occlusion, and `transport_green06`'s glossy part, Green06 Fig 1's spatially
+ * varying material) are the stage's, each vertex's fitted with its own material (the textures
+ * filtered to the vertex spacing, transport.vertex_materials) and blended like any others:
+ * `transport_green06`'s glossy colour and roughness vary at the mesh's resolution.
  * tp_obj per object: (first vertex row, first face, Gaussians K, TP_HAS_* bits). */
 #include "sg.h"
 #include "asg.h"
