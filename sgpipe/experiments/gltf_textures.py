@@ -2,14 +2,15 @@
 textured_ball.glb: base colour, roughness 0.05–0.8, sharp metal bands, a normal texture of
 round bumps) and a plane seen at 50° from its normal carrying the same textures, the base-colour
 and metallic-roughness textures minified k = 1, 2, 4, 8 and 16 times (KHR_texture_transform
-scale k, samplers repeating: k² times the texels under each pixel),
-rendered under the studio map by `sg`, `fis` and `gmm` (per-pixel parameters from the
-MIP-filtered textures), by `transport` and `transport_green06` (with the visibility and
-transport stages, in a run of their own; per-vertex materials filtered to the vertex spacing)
-and by the Monte Carlo `reference` (the unfiltered textures at each sample's hit); the asset without its normal texture (`smooth`: the textured
-parameters alone); as a control, a sphere in uniform metal and dielectric materials of
-roughness 0.1–0.9; and gmm's error, fit time and storage against its count of roughness entries
-(fit.view_gmm_rough).
+scale k, samplers repeating: k² times the texels under each pixel), rendered under the studio
+map by `sg`, `fis` and `gmm` (per-pixel parameters from the MIP-filtered textures), by the
+Han07 normal-map methods (the normal texture as filtered pyramids), by `transport` and
+`transport_green06` (with the visibility and transport stages, in a run of their own;
+per-vertex materials filtered to the vertex spacing) and by the Monte Carlo `reference` (the
+unfiltered textures at each sample's hit); the asset without its normal texture (`smooth`:
+the textured parameters alone); as a control, a sphere in uniform metal and dielectric
+materials of roughness 0.1–0.9; and gmm's error, fit time and storage against its count of
+roughness entries (fit.view_gmm_rough).
 
     python -m sgpipe.experiments.gltf_textures --out out/figures/gltf_textures \\
         --results docs/results/gltf_textures.md
