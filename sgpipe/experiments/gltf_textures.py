@@ -45,6 +45,9 @@ METHODS = ("sg", "fis", "gmm")
 #: the Han07 methods, in the main run with a `normalmap:` section (the asset's normal texture
 #: as pyramids; no effect on the other methods)
 NM_METHODS = ("vmf", "vmf_han07", "normals_mip", "toksvig", "engine_bake", "nm_sh")
+#: the other papers as published, in the main run too (nm_sh_han07 not on the uniform controls:
+#: §5's l* = ⌈√(4s)⌉ of a glossy GGX factor is beyond the SH orders it renders)
+PUBLISHED = ("sg_wang09", "gmm_toral19", "nm_sh_han07")
 #: the Green06 methods, in a run of their own with the visibility and transport stages (the
 #: other methods' runs stay without SSDF shadows)
 TRANSPORT_METHODS = ("transport", "transport_green06")
@@ -131,7 +134,7 @@ def _config(glb: Path | None, subject: str, size: int, spp: int, seed: int, meth
                  f"fit:\n  {gmm}\n  materials: [{{name: paint, "
                  f"model: gltf_pbr, params: {{base_color: {list(UNIFORM_BASE)}, metallic: "
                  f"{uniform[0]}, roughness: {uniform[1]}}}}}]")
-    nm = "normalmap: {}\n" if set(methods) & set(NM_METHODS) else ""
+    nm = "normalmap: {}\n" if set(methods) & set(NM_METHODS + PUBLISHED[2:]) else ""
     return f"""name: gltf_textures
 seed: {seed}
 {scene}
@@ -166,7 +169,8 @@ def measure(subject: str, k: int, work: Path, *, size: int, spp: int,
         glb, tag = write_variant(subject, k, work / f"{subject}_{k}x.glb"), f"{subject}_{k}x"
     else:
         glb, tag = None, f"uniform_m{uniform[0]:g}_r{uniform[1]:g}"
-    a = _run(_config(glb, subject, size, spp, 1, (*METHODS, *NM_METHODS, "reference"),
+    pub = PUBLISHED if uniform is None else PUBLISHED[:2]
+    a = _run(_config(glb, subject, size, spp, 1, (*METHODS, *NM_METHODS, *pub, "reference"),
                      uniform), work, f"{tag}_a")
     b = _run(_config(glb, subject, size, spp, 2, ("reference",), uniform), work, f"{tag}_b")
     ra, rb = (read_exr(d / "reference.exr")[..., :3] for d in (a, b))
@@ -177,7 +181,7 @@ def measure(subject: str, k: int, work: Path, *, size: int, spp: int,
            "floor_db": display_psnr(ra, rb, mask=mask) + 6.02}
     if uniform is not None:
         row.update(metallic=uniform[0], roughness=uniform[1])
-    for m in METHODS + NM_METHODS:
+    for m in METHODS + NM_METHODS + pub:
         row[m] = {"surface_display_psnr_db": display_psnr(read_exr(a / f"{m}.exr")[..., :3],
                                                           ref, mask=mask),
                   "frame_ms": 1e3 * timings[f"{m}_s"]}

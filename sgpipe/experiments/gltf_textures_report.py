@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from sgpipe.experiments.gltf_textures import (GMM_GOAL_DB, GOAL_DB, METHODS, NM_METHODS,
-                                              SUPERSAMPLE, TEXTURE_ROUGHNESS_MAX,
+                                              PUBLISHED, SUPERSAMPLE, TEXTURE_ROUGHNESS_MAX,
                                               UNIFORM_BASE)
 
 
@@ -72,6 +72,18 @@ def report(rows: list[dict], size: int, spp: int, sweep: list[dict] | None = Non
                 else f"uniform m {r['metallic']:g} r {r['roughness']:g} | 1×")
         lines.append(f"| {what} | " + " | ".join(f"{_db(r, m):.1f}" for m in NM_METHODS)
                      + f" | {_db(r, 'sg'):.1f} | {r['floor_db']:.1f} |")
+    pub = [m for m in (*PUBLISHED[:2], "vmf_han07", PUBLISHED[2], "transport_green06")]
+    lines += ["", "Each paper as published (`sg_wang09`, `gmm_toral19`, `vmf_han07`, "
+              "`nm_sh_han07` from the main run, `transport_green06` from the transport run; "
+              "`nm_sh_han07` not on the controls, whose glossy factors need an SH order beyond "
+              "16 by §5's l* = ⌈√(4s)⌉):", "",
+              "| subject | k | " + " | ".join(pub) + " | floor |",
+              "|---|---|" + "---|" * (len(pub) + 1)]
+    for r in rows:
+        what = (f"{r['subject']} | {r['minification']}×" if r["subject"] != "uniform"
+                else f"uniform m {r['metallic']:g} r {r['roughness']:g} | 1×")
+        lines.append(f"| {what} | " + " | ".join(f"{_db(r, m):.1f}" if m in r else "–"
+                                                for m in pub) + f" | {r['floor_db']:.1f} |")
     if controls:
         lines += ["", "Control: the unit sphere in a uniform `gltf_pbr` material (base colour "
                   f"{list(UNIFORM_BASE)}), same camera, map and references — what each method "
