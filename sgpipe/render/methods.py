@@ -249,7 +249,7 @@ NORMALMAP_METHODS = ("vmf", "normals_mip", "toksvig", "engine_bake", "nm_sh", "v
                      "nm_sh_han07")
 
 #: the normal-map kernels: the pyramids, and the material's NDF lobes (MAX_NDF_LOBES) for the
-#: bare material's environment specular through the `sg` method's lobes (nm_shade_body.h)
+#: bare material's environment specular through the `sg` method's lobes (nm_terms_body.h)
 NM_KERNEL = {"needs_normalmap": True, "defines": ("MAX_NDF_LOBES",)}
 
 METHODS: dict[str, Method] = {m.name: m for m in (

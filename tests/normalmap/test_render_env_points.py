@@ -1,5 +1,5 @@
 """The normal-map kernels under an environment with a point set (a sun: nm_env.h nm_points) and
-the environment's diffuse term of a spread NDF (nm_shade_body.h): a point of energy E at c
+the environment's diffuse term of a spread NDF (nm_terms_body.h): a point of energy E at c
 shades exactly as a directional light of irradiance E from c, every lobe with its own BRDF,
 at head-on and grazing views; vmf's diffuse under a constant environment is linear in the NDF
 (kd·C·|n̄| for a mean normal n̄ whose whole lobe sees the sky)."""

@@ -39,14 +39,8 @@
                 ckd = c0.xyz;               /* the textures' values; × kd, ks below */
                 cks = (float3)(c0.w, c1.x, c1.y);
             }
-            int jm = nm_merge_tap(ax, lp, 0, nlob, nk / ln, wt,
-                                  (float4)(1.0f, s, bnorm * (s + 1.0f), s));
-            if (jm) {                       /* the merged lobe's colour: weighted mean */
-                float u = wt / lp[jm - 1].x;
-                lkd[jm - 1] += (ckd - lkd[jm - 1]) * u;
-                lks[jm - 1] += (cks - lks[jm - 1]) * u;
-                continue;
-            }
+            if (nm_merge_tap(ax, lp, lkd, lks, 0, nlob, nk / ln, wt,
+                             (float4)(1.0f, s, bnorm * (s + 1.0f), s), ckd, cks)) continue;
             ax[nlob] = (float4)(nk / ln, 1.0f);
             lp[nlob] = (float4)(wt, s, bnorm * (s + 1.0f), s);
             lkd[nlob] = ckd; lks[nlob] = cks;
@@ -82,13 +76,7 @@
                 cks = (float3)(c0.w, c1.x, c1.y) / t.x;
             }
             /* the box's texels repeat on a periodic map: their equal lobes shade once */
-            int jm = nm_merge_tap(ax, lp, n0l, nlob, mu, t.x, par);
-            if (jm) {
-                float u = t.x / lp[jm - 1].x;
-                lkd[jm - 1] += (ckd - lkd[jm - 1]) * u;
-                lks[jm - 1] += (cks - lks[jm - 1]) * u;
-                continue;
-            }
+            if (nm_merge_tap(ax, lp, lkd, lks, n0l, nlob, mu, t.x, par, ckd, cks)) continue;
             lrl[nlob] = fmin(lr, 1.0f);
             ax[nlob] = (float4)(mu, par.x);
             lp[nlob] = (float4)(t.x, par.yzw);
@@ -139,7 +127,8 @@
                 wk = n0s[k].x / (float)ntap;
             }
             float3 q = nm_single_lobe(NM_FILTER, info.w, rk, s, bnorm, &amp);
-            if (at0 && nm_merge_tap(ax, lp, 0, nlob, ak, wk, (float4)(amp, q))) continue;
+            if (at0 && nm_merge_tap(ax, lp, lkd, lks, 0, nlob, ak, wk, (float4)(amp, q), kd,
+                                    ks)) continue;
             ax[nlob] = (float4)(ak, amp);
             lp[nlob] = (float4)(wk, q.x, q.y, q.z);
             lkd[nlob] = kd; lks[nlob] = ks;
