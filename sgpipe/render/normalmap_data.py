@@ -200,9 +200,8 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
     index = nm_dir / "index.json"
     objs = cfg.scene.objects
     methods = set(cfg.render.methods)
-    from sgpipe.render.setup import has_gltf_normal_texture
-    assets: dict = {}
-    mapped = [o.normal_map is not None or has_gltf_normal_texture(cfg, o, assets) for o in objs]
+    from sgpipe.render.setup import normal_mapped
+    mapped = normal_mapped(cfg)
     if any(mapped) and not index.is_file():
         raise BadInput("normal-map pyramids not found: add a `normalmap:` section and run "
                        "`sgpipe precompute` (or `sgpipe run`) with the same --out",

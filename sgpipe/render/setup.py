@@ -224,10 +224,16 @@ def _gltf_material(cfg, obj, assets: dict):
     return spec, asset, ref.material
 
 
-def has_gltf_normal_texture(cfg, obj, assets: dict) -> bool:
-    """Does a scene object without a `normal_map` render a glTF material's normal texture?"""
-    found = None if obj.normal_map is not None else _gltf_material(cfg, obj, assets)
-    return found is not None and found[1].doc.materials[found[2]].normalTexture is not None
+def normal_mapped(cfg) -> list[bool]:
+    """Per scene object: does it carry a normal map (its own `normal_map`, or its glTF
+    material's normal texture)?"""
+    assets: dict = {}
+
+    def gltf_map(o):
+        found = _gltf_material(cfg, o, assets)
+        return found is not None and found[1].doc.materials[found[2]].normalTexture is not None
+    return [o.normal_map is not None or gltf_map(o)
+            for o in (cfg.scene.objects if cfg.scene is not None else [])]
 
 
 def gltf_normal_texture(cfg, obj, assets: dict):

@@ -31,11 +31,10 @@ UPSTREAM = (("fit", "fit", ("fit",)), ("envmap", "precompute", ("envmap",)),
                                          "scene.objects.*.normal_map")))
 
 
-def _inputs(cfg, out_dir: Path) -> list[Path]:
-    """Upstream manifests (they hash every artifact) and the files the scene names."""
-    files = [out_dir / s / "manifest.json"
-             for s in ("fit", "envmap", "visibility", "transport", "normalmap")
-             if getattr(cfg, s) is not None and (s != "normalmap" or _normal_mapped(cfg))]
+def _inputs(cfg, out_dir: Path, upstream: list[str]) -> list[Path]:
+    """Upstream manifests of the stages read (they hash every artifact) and the files the
+    scene names."""
+    files = [out_dir / s / "manifest.json" for s in upstream]
     for o in cfg.scene.objects if cfg.scene is not None else []:
         files += object_files(o) + ([Path(o.normal_map)] if o.normal_map else [])
     for t in cfg.render.material_textures:
@@ -46,15 +45,6 @@ def _inputs(cfg, out_dir: Path) -> list[Path]:
         if m.merl_file:
             files.append(Path(m.merl_file))
     return files
-
-
-def _normal_mapped(cfg) -> bool:
-    """Does a scene object carry a normal map (its own or its glTF material's)? Without one
-    the normalmap stage has nothing to write."""
-    from sgpipe.render.setup import has_gltf_normal_texture
-    assets: dict = {}
-    return any(o.normal_map is not None or has_gltf_normal_texture(cfg, o, assets)
-               for o in (cfg.scene.objects if cfg.scene is not None else []))
 
 
 def _time_method(renderer, method, frame_dev, repeats, **kw):
@@ -75,15 +65,17 @@ def run(cfg, out_dir: Path, *, force: bool = False):
         return None
     from sgpipe.render.methods import METHODS, REFERENCE
     from sgpipe.render.records import KernelFlag
-    from sgpipe.render.setup import build_scene
+    from sgpipe.render.setup import build_scene, normal_mapped
     from sgpipe.scene.camera import Camera
     from sgpipe.scene.gbuffer import Tracer
 
     out_dir = Path(out_dir)
     rs = cfg.render
-    for stage, cmd, sections in UPSTREAM:
-        if getattr(cfg, stage) is None or (stage == "normalmap" and not _normal_mapped(cfg)):
-            continue
+    # the normalmap stage writes nothing for a scene without normal maps
+    upstream = [(stage, cmd, sections) for stage, cmd, sections in UPSTREAM
+                if getattr(cfg, stage) is not None
+                and (stage != "normalmap" or any(normal_mapped(cfg)))]
+    for stage, cmd, sections in upstream:
         if not (out_dir / stage / "manifest.json").is_file():
             raise BadInput(f"no {stage} artifacts here: run `sgpipe {cmd}` (or `sgpipe run`) "
                            f"with the same --out first", file=out_dir / stage, key=stage)
@@ -95,8 +87,8 @@ def run(cfg, out_dir: Path, *, force: bool = False):
                            key=stage)
     params = {"render": to_plain(rs), "scene": to_plain(cfg.scene),
               "materials": to_plain(cfg.fit.materials) if cfg.fit is not None else []}
-    with StageRun(cfg, out_dir, "render", params=params, inputs=_inputs(cfg, out_dir),
-                  force=force) as run:
+    inputs = _inputs(cfg, out_dir, [stage for stage, _, _ in upstream])
+    with StageRun(cfg, out_dir, "render", params=params, inputs=inputs, force=force) as run:
         if run.skipped:
             return run
         shaders = [METHODS[m] for m in rs.methods if m in METHODS]
