@@ -38,9 +38,6 @@ def test_textured_halves_render_as_their_uniform_materials(tmp_path, light):
         assert off >= 0.2, (tag, off)
 
 
-#: the texture's normal: 30° off +Z towards 60° from +X (tests/scene/test_gltf_normals.py)
-TILT = np.array([np.sin(np.pi / 6) * np.cos(np.pi / 3), np.sin(np.pi / 6) * np.sin(np.pi / 3),
-                 np.cos(np.pi / 6)])
 NM_ALL = ("normals_mip", "vmf", "toksvig", "engine_bake", "nm_sh")
 
 
@@ -51,19 +48,7 @@ def test_gltf_normal_texture_becomes_the_pyramid(tmp_path, given):
     with a `normalmap:` section the normalmap stage builds the texture's pyramid, and every
     normal-map method renders the strip as the same strip with the decoded normal as geometry
     (within 0.5 %); the wrong bitangent on the left half would be > 5 % off."""
-    c = np.round((TILT + 1.0) / 2.0 * 255.0) / 255.0
-    img, n = np.tile(c, (4, 4, 1)), 2.0 * c - 1.0
-    scale = 0.7 if given == "mikktspace" else None
-    tangents = None if given == "mikktspace" else [[-1, 0, 0, -1], [1, 0, 0, 1]]
-    textured = gb.write_glb(gb.mirrored_strip({"normalTexture": img}, tangents=tangents,
-                                              normal_scale=scale), tmp_path / "tex.glb")
-    s = 1.0 if scale is None else scale
-    right = np.array([s * n[0], s * n[1], n[2]])
-    right /= np.linalg.norm(right)
-    left = right * [-1.0, 1.0, 1.0]
-    baked = gb.write_glb(gb.mirrored_strip(normals=[left, right]), tmp_path / "baked.glb")
-    flipped = gb.write_glb(gb.mirrored_strip(normals=[left * [1.0, -1.0, 1.0], right]),
-                           tmp_path / "flipped.glb")
+    textured, baked, flipped = gb.tilted_strips(tmp_path, given)
     nm = "normalmap: {lobes: 2, sh_order: 2}\n"
     got = gb.render_quad(tmp_path, textured, "tex", NM_ALL, light=True, sections=nm)
     want = gb.render_quad(tmp_path, baked, "baked", NM_ALL, light=True)

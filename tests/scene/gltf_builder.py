@@ -223,6 +223,33 @@ def mirrored_strip(images=None, *, normals=None, tangents=None, normal_scale=Non
                          base=(0.5, 0.5, 0.5), metallic=0.0, roughness=roughness)
 
 
+#: a normal texture's normal: 30° off +Z towards 60° from +X (so it leans along +Y too)
+TILT = np.array([np.sin(np.pi / 6) * np.cos(np.pi / 3), np.sin(np.pi / 6) * np.sin(np.pi / 3),
+                 np.cos(np.pi / 6)])
+
+
+def tilted_strips(folder: Path, given: str) -> tuple[Path, Path, Path]:
+    """The mirrored strip with a constant 4 × 4 normal texture of TILT (8-bit) — `given`
+    "mikktspace": no TANGENT, the texture's scale 0.7; "tangent": TANGENTs −x (w −1) / +x
+    (w 1), scale 1 — the same strip with the normal the texels decode to as geometry (x
+    mirrored on the left half, (s x, s y, z) under the scale s), and that strip with the left
+    half's y flipped too (+Y along n × t, w ignored): (textured, baked, flipped) .glb files."""
+    c = np.round((TILT + 1.0) / 2.0 * 255.0) / 255.0
+    img, n = np.tile(c, (4, 4, 1)), 2.0 * c - 1.0
+    scale = 0.7 if given == "mikktspace" else None
+    tangents = None if given == "mikktspace" else [[-1, 0, 0, -1], [1, 0, 0, 1]]
+    textured = write_glb(mirrored_strip({"normalTexture": img}, tangents=tangents,
+                                        normal_scale=scale), folder / "tex.glb")
+    s = 1.0 if scale is None else scale
+    right = np.array([s * n[0], s * n[1], n[2]])
+    right /= np.linalg.norm(right)
+    left = right * [-1.0, 1.0, 1.0]
+    baked = write_glb(mirrored_strip(normals=[left, right]), folder / "baked.glb")
+    flipped = write_glb(mirrored_strip(normals=[left * [1.0, -1.0, 1.0], right]),
+                        folder / "flipped.glb")
+    return textured, baked, flipped
+
+
 #: the two-material quad's halves: base colours (sRGB) and (roughness, metallic)
 HALF_A, HALF_B = np.array([0.8, 0.3, 0.1]), np.array([0.1, 0.4, 0.9])
 HALF_MATERIALS = {"a": (HALF_A, 0.3, 0.0), "b": (HALF_B, 0.7, 1.0)}

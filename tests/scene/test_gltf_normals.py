@@ -14,16 +14,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).parent))
 import gltf_builder as gb  # noqa: E402
 
-#: the texture's normal: 30° off +Z towards 60° from +X (so it leans along +Y too)
-TILT = np.array([np.sin(np.pi / 6) * np.cos(np.pi / 3), np.sin(np.pi / 6) * np.sin(np.pi / 3),
-                 np.cos(np.pi / 6)])
 METHODS = ("sg", "fis", "reference")
-
-
-def _texture() -> tuple[np.ndarray, np.ndarray]:
-    """A constant 4 × 4 normal texture of TILT and the normal its 8-bit texels decode to."""
-    c = np.round((TILT + 1.0) / 2.0 * 255.0) / 255.0
-    return np.tile(c, (4, 4, 1)), 2.0 * c - 1.0
 
 
 def _render(tmp_path, glb: Path, tag: str, visibility: bool = False) -> dict:
@@ -56,16 +47,7 @@ def test_normal_texture_renders_as_the_normal_it_encodes(tmp_path, given):
     runs along +x, on the left along −x, and on both its +Y (up in the image) along +y. The
     same square with the decoded normal as geometry (x mirrored on the left) renders the same
     in every method; under the texture's `scale` s the normal is (s x, s y, z)."""
-    img, n = _texture()
-    scale = 0.7 if given == "mikktspace" else None
-    tangents = None if given == "mikktspace" else [[-1, 0, 0, -1], [1, 0, 0, 1]]
-    textured = gb.write_glb(gb.mirrored_strip({"normalTexture": img}, tangents=tangents,
-                                              normal_scale=scale), tmp_path / "tex.glb")
-    s = 1.0 if scale is None else scale
-    right = np.array([s * n[0], s * n[1], n[2]])
-    right /= np.linalg.norm(right)
-    left = right * [-1.0, 1.0, 1.0]
-    baked = gb.write_glb(gb.mirrored_strip(normals=[left, right]), tmp_path / "baked.glb")
+    textured, baked, flipped = gb.tilted_strips(tmp_path, given)
     vis = given == "tangent"         # one variant through the visibility stage's geometry
     got = _render(tmp_path, textured, "tex", vis)
     want = _render(tmp_path, baked, "baked", vis)
@@ -77,8 +59,6 @@ def test_normal_texture_renders_as_the_normal_it_encodes(tmp_path, given):
         assert err <= 2e-3, (method, err)
     # the bitangent's sign matters here: with +Y along n × t on the left half (w ignored)
     # that half would render as the normal (−x, −y, z), far outside the tolerance
-    flipped = gb.write_glb(gb.mirrored_strip(normals=[left * [1.0, -1.0, 1.0], right]),
-                           tmp_path / "flipped.glb")
     wrong = _render(tmp_path, flipped, "flipped", vis)["sg"][rows]
     b = want["sg"][rows]
     assert np.abs(wrong - b).mean() / np.abs(b).mean() > 0.05
