@@ -27,6 +27,9 @@ PREVIEW_LEVELS = "preview_levels.png"
 #: the vMF lobes' colour features (Han07 eq 22; `feature_names` in vmf.npz, in this order): the
 #: render.material_textures multipliers of kd and ks
 FEATURE_NAMES = ("kd.r", "kd.g", "kd.b", "ks.r", "ks.g", "ks.b")
+#: a glTF material's features: the BRDF's linear parameters kd = (1 − m)c, F0 = lerp(0.04, c, m)
+#: and ln roughness, its factors applied (render.setup.linear_parameters)
+GLTF_FEATURE_NAMES = ("kd.r", "kd.g", "kd.b", "f0.r", "f0.g", "f0.b", "ln_roughness")
 
 
 def map_file(name: str, f: str) -> str:
@@ -75,14 +78,15 @@ def _levels_arrays(prefix: str, levels: list[np.ndarray]) -> dict:
 
 # -- writers (the normalmap stage) ------------------------------------------------------------
 def write_vmf(sink, name: str, alpha: list, alpha_r: list, *, kappa_max: float,
-              aligned: bool, alpha_f: list | None = None) -> None:
+              aligned: bool, alpha_f: list | None = None,
+              feature_names: tuple = FEATURE_NAMES) -> None:
     """`vmf.npz`: alpha_LL (m, m, J) and alpha_r_LL (m, m, J, 3) float32 per level LL; one
     RGBA EXR atlas per lobe j (channels alpha, alpha_r.x/y/z: Algorithm 2's vMFTexture[j]).
-    With colour features (Han07 eq 22): alpha_f_LL (m, m, J, F) and `feature_names`, one EXR
+    With features (Han07 eq 22): alpha_f_LL (m, m, J, F) and `feature_names`, one EXR
     atlas per lobe of α·f (`vmf_lobe<j>_features.exr`) and a PNG of the lobe's kd colour."""
     k_n = alpha[0].shape[2]
     extra = {} if alpha_f is None else {**_levels_arrays("alpha_f", alpha_f),
-                                        "feature_names": np.array(FEATURE_NAMES)}
+                                        "feature_names": np.array(feature_names)}
     sink.write_npz(map_file(name, VMF), {
         **_levels_arrays("alpha", alpha), **_levels_arrays("alpha_r", alpha_r),
         "levels": np.int32(len(alpha)), "lobes": np.int32(k_n),
@@ -101,7 +105,7 @@ def write_vmf(sink, name: str, alpha: list, alpha_r: list, *, kappa_max: float,
         sink.write_exr(map_file(name, stem + ".exr"),
                        atlas([np.asarray(af[..., j, :], np.float32) for af in alpha_f]),
                        png=False,
-                       channel_names=[f"alpha_f.{c}" for c in FEATURE_NAMES],
+                       channel_names=[f"alpha_f.{c}" for c in feature_names],
                        metadata={"normal_map": name, "lobe": j, "layout": "mip_atlas"})
         kd = [np.where(a[..., j:j + 1] > 0, af[..., j, :3], 0.0)
               / np.maximum(a[..., j:j + 1], 1e-30) for a, af in zip(alpha, alpha_f)]
@@ -160,6 +164,7 @@ class VMFTextures:
     kappa_max: float
     aligned: bool
     alpha_f: list | None = None    # per level (m, m, J, F) float32: α·features (eq 22)
+    feature_names: tuple = FEATURE_NAMES
 
 
 def _levels(z, prefix, n, path, key, tail):
@@ -185,14 +190,14 @@ def read_vmf(nm_dir: str | Path, name: str) -> VMFTextures:
     alpha_f = None
     if "alpha_f_00" in z:
         names = tuple(str(x) for x in np.asarray(z.get("feature_names", [])).reshape(-1))
-        if names != FEATURE_NAMES:
-            raise BadInput(f"feature_names {list(names)}, expected {list(FEATURE_NAMES)}",
-                           file=path, key=key)
-        alpha_f = _levels(z, "alpha_f", n, path, key, (k, len(FEATURE_NAMES)))
+        if names not in (FEATURE_NAMES, GLTF_FEATURE_NAMES):
+            raise BadInput(f"feature_names {list(names)}, expected {list(FEATURE_NAMES)} or "
+                           f"{list(GLTF_FEATURE_NAMES)}", file=path, key=key)
+        alpha_f = _levels(z, "alpha_f", n, path, key, (k, len(names)))
     return VMFTextures(_levels(z, "alpha", n, path, key, (k,)),
                        _levels(z, "alpha_r", n, path, key, (k, 3)),
                        scalar(z.get("kappa_max", 1e4)), bool(scalar(z.get("aligned", 1))),
-                       alpha_f)
+                       alpha_f, names if alpha_f is not None else FEATURE_NAMES)
 
 
 def read_sh(nm_dir: str | Path, name: str) -> tuple[list, int]:

@@ -4,7 +4,10 @@ carries the responsibility-weighted mean colour of its normals, `vmf.fit_vmf_pyr
 
 The features are the `render.material_textures` multipliers (kd.rgb, ks.rgb; 1 where a
 material has no such texture): the render multiplies them by the material's kd / ks, as it
-multiplies the textures' values, so objects with different factors share one pyramid."""
+multiplies the textures' values, so objects with different factors share one pyramid. A glTF
+material's normal texture (one pyramid per material) carries its base-colour and
+metallic-roughness textures as the BRDF's linear parameters kd, F0 and ln roughness, factors
+applied: each lobe then has its own colour, F0 and roughness (eq 22 with eq 21)."""
 
 from __future__ import annotations
 
@@ -58,3 +61,28 @@ def map_features(kd_map, ks_map, n: int, read) -> np.ndarray | None:
         if path is not None:
             out[..., 3 * k:3 * k + 3] = resample(read(path, key), n)[..., :3]
     return out
+
+
+def gltf_map_features(params: dict, base, mr, n: int) -> np.ndarray | None:
+    """(n, n, 7) features of a glTF material (GLTF_FEATURE_NAMES) on an n × n map: per texel
+    the BRDF's linear parameters kd, F0 and ln roughness, factors `params` applied
+    (render.setup.linear_parameters), then `resample`d — a box mean is the BRDF's mean for a
+    given roughness and the roughness' geometric mean. `base`, `mr`: the material's
+    GltfTextures (None: no such texture); both None: None."""
+    if base is None and mr is None:
+        return None
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from sgpipe.render.setup import linear_parameters
+    g = SimpleNamespace(
+        base_color=np.broadcast_to(np.asarray(params.get("base_color", 1.0), float), (3,)),
+        metallic=float(params.get("metallic", 1.0)), roughness=float(params.get("roughness", 1.0)))
+    lin = linear_parameters(g, base, mr)
+    if lin is None:             # the two textures on different grids: each on the map's first
+        base, mr = (None if t is None else replace(t, image=resample(t.image, n))
+                    for t in (base, mr))
+        lin = linear_parameters(g, base, mr)
+    (a, b), _ = lin
+    return np.concatenate([resample(a[..., :3], n), resample(b[..., :3], n),
+                           resample(a[..., 3:4], n)], -1)

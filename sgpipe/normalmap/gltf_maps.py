@@ -15,11 +15,13 @@ from sgpipe.errors import BadInput
 WRAP_NAMES = {10497: "repeat", 33071: "clamp"}
 
 
-def gltf_normal_maps(cfg, taken: set[str]) -> list[dict]:
+def gltf_normal_maps(cfg, taken: set[str], with_features: bool = False) -> list[dict]:
     """{name, path, key, objects, textures, texels, wrap} per glTF material with a normal
     texture used by a scene object without a `normal_map` of its own; names
     `<file stem>_<material>` (unique against `taken`, which grows). BadInput for a texture
-    the pyramids cannot hold: not square power-of-two, MIRRORED_REPEAT, KHR_texture_transform."""
+    the pyramids cannot hold: not square power-of-two, MIRRORED_REPEAT, KHR_texture_transform.
+    `with_features`: also `material` = (factors, base-colour, metallic-roughness GltfTexture)
+    where the material has such textures on the normal texture's UVs (`material_textures`)."""
     from sgpipe.normalmap.read import validate_texels
     from sgpipe.render.setup import _gltf_material, gltf_normal_texture
     assets: dict = {}
@@ -57,6 +59,23 @@ def gltf_normal_maps(cfg, taken: set[str]) -> list[dict]:
             maps[key] = {"name": name, "path": o.mesh, "key": where, "objects": [],
                          "textures": (None, None), "texels": np.ascontiguousarray(img[..., :3]),
                          "wrap": [WRAP_NAMES[w] for w in tex.wrap]}
+            if with_features:
+                found_tex = material_textures(asset, index)
+                if found_tex is not None:
+                    maps[key]["material"] = (dict(found[0].params or {}),) + found_tex
         maps[key]["objects"].append(o.name)
     return list(maps.values())
 
+
+
+def material_textures(asset, index: int):
+    """(base-colour, metallic-roughness) GltfTextures of a glTF material that has either, as the
+    features of its normal texture's pyramid (Han07 eq 22), or None: none, or one under a
+    KHR_texture_transform (its texels are not on the normal texture's grid)."""
+    from sgpipe.io.gltf_textures import material_texture
+    base = material_texture(asset, index, "baseColorTexture")
+    mr = material_texture(asset, index, "metallicRoughnessTexture")
+    if (base is None and mr is None) or any(t is not None and t.matrix is not None
+                                            for t in (base, mr)):
+        return None
+    return base, mr

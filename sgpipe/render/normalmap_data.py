@@ -9,7 +9,9 @@ the normal-map kernels `vmf`, `normals_mip`, `toksvig`, `engine_bake`, `nm_sh`
 Layout (float4 `nm_data`): per map and level ℓ (side m) first the lobes, texel-major in image
 rows (row 0 = v = 1) then lobe j: (α_j, α_j·r_j) — eq 24's linear textures, interpolated before
 κ and μ are recovered — then, for a pyramid with colour features (eq 22), per texel and lobe j
-two float4 (α_j·kd.rgb, α_j·ks.r), (α_j·ks.g, α_j·ks.b, 0, 0) at the lobe offset + m²·J, then
+two float4 (α_j·kd.rgb, α_j·ks.r), (α_j·ks.g, α_j·ks.b, 0, 0) — a glTF material's
+(α_j·kd.rgb, α_j·F0.r), (α_j·F0.g, α_j·F0.b, α_j·ln roughness, 0) — at the lobe offset + m²·J,
+then
 the plain MIP of the normals (mean.xyz, |mean|) per texel, then the SH
 NDF coefficients γ_lm (⌈K/4⌉ float4 per texel, K = (l* + 1)², zero-padded).
 `nm_levels` int4 per (map, level): (lobe offset, side, mean offset, SH offset). `nm_info` int4
@@ -17,8 +19,8 @@ per scene object: (first level row, levels, lobes J, has map: 1 + 2·clamp u + 4
 glTF sampler's CLAMP_TO_EDGE per axis, else repeat). `nm_brdf` NM_BRDF_STRIDE floats
 per object: Blinn–Phong exponent s or microfacet roughness (Beckmann, GGX α, Cook–Torrance m),
 max taps along the footprint's major axis (1: isotropic), model (BRDF_MODELS), K (slots 0–3);
-the pyramid has colour features (1/0, slot 12); environment specular on (1/0, slot 13),
-footprint filter (0 trilinear, 1 box: render.normalmap_footprint, slot 14), Han07 §5's l*
+the pyramid's features (slot 12: 0 none, 1 kd / ks multipliers, 2 a glTF material's);
+environment specular on (1/0, slot 13), footprint filter (0 trilinear, 1 box: render.normalmap_footprint, slot 14), Han07 §5's l*
 (published_sh_order, slot 15); ρ̂_0 … ρ̂_16 of the specular function the SH method filters
 (eq 11, slots RHO0 …); the rest 0.
 `nm_env_sh` float4 per coefficient: the environment's radiance SH L_lm (world, l ≤ 2).
@@ -63,6 +65,7 @@ class NormalMapPyramid:
     gamma: list | None = None
     alpha_f: list | None = None
     wrap: tuple = ("repeat", "repeat")      # per axis u, v: "repeat" or "clamp"
+    gltf_features: bool = False             # alpha_f holds GLTF_FEATURE_NAMES (absolute)
 
     @classmethod
     def load(cls, nm_dir: Path, name: str, *, need_vmf: bool = True,
@@ -70,10 +73,12 @@ class NormalMapPyramid:
         from sgpipe.artifacts.normalmap import SH, VMF, map_file, read_baselines, read_sh, read_vmf
         b = read_baselines(nm_dir, name)
         n = len(b["mean"])
-        alpha_f = None
+        alpha_f, glf = None, False
         if need_vmf or (Path(nm_dir) / map_file(name, VMF)).is_file():
+            from sgpipe.artifacts.normalmap import GLTF_FEATURE_NAMES
             v = read_vmf(nm_dir, name)
             alpha, alpha_r, alpha_f = v.alpha, v.alpha_r, v.alpha_f
+            glf = alpha_f is not None and v.feature_names == GLTF_FEATURE_NAMES
         else:        # no vMF pyramid (normalmap.methods without vmf): zero lobes
             alpha = [np.zeros(m.shape[:2] + (0,), np.float32) for m in b["mean"]]
             alpha_r = [np.zeros(m.shape[:2] + (0, 3), np.float32) for m in b["mean"]]
@@ -89,7 +94,7 @@ class NormalMapPyramid:
         if len(alpha) != n or (gamma is not None and len(gamma) != n):
             raise BadInput("vmf.npz, sh.npz and baselines.npz have different level counts",
                            file=Path(nm_dir) / name, key=f"normalmap.{name}")
-        return cls(alpha, alpha_r, b["mean"], gamma, alpha_f)
+        return cls(alpha, alpha_r, b["mean"], gamma, alpha_f, gltf_features=glf)
 
 
 @dataclass
@@ -125,9 +130,10 @@ class NormalMapData:
                     m = a.shape[0]
                     lob = np.concatenate([np.asarray(a, np.float32)[..., None],
                                           np.asarray(ar, np.float32)], -1).reshape(-1, 4)
-                    if p.alpha_f is not None:     # α·(kd, ks) per lobe, two float4 each
+                    if p.alpha_f is not None:     # α·features per lobe, two float4 each
                         af = np.zeros(a.shape + (8,), np.float32)
-                        af[..., :6] = np.asarray(p.alpha_f[lv], np.float32)[..., :6]
+                        f = np.asarray(p.alpha_f[lv], np.float32)
+                        af[..., :f.shape[-1]] = f
                         lob = np.concatenate([lob, af.reshape(-1, 4)])
                     mn = np.zeros((m * m, 4), np.float32)
                     mn[:, :3] = np.asarray(mean, np.float32).reshape(-1, 3)
@@ -147,7 +153,7 @@ class NormalMapData:
             info.append(seen[id(p)])
             if p.gamma is not None:
                 nsh[k] = int(np.asarray(p.gamma[0]).shape[-1])
-            feat[k] = 1.0 if p.alpha_f is not None else 0.0
+            feat[k] = 0.0 if p.alpha_f is None else (2.0 if p.gltf_features else 1.0)
         brdf = np.zeros((len(info), BRDF_STRIDE), np.float32)
         brdf[:, 0] = params
         brdf[:, 1] = max_taps

@@ -25,7 +25,8 @@ def collect_maps(cfg) -> list[dict]:
     With `normalmap.colour_features`, objects whose materials have different colour textures
     (kd_map, ks_map) get distinct pyramids of the same map: the textures are its features.
     Then the glTF materials' normal textures (`normalmap.gltf_maps.gltf_normal_maps`: with
-    their decoded `texels` and samplers' `wrap`)."""
+    their decoded `texels`, samplers' `wrap` and, with colour_features, the `material` whose
+    base-colour and metallic-roughness textures are their features)."""
     from sgpipe.normalmap.gltf_maps import gltf_normal_maps
     from sgpipe.normalmap.features import texture_files
     maps: dict[tuple, dict] = {}
@@ -46,7 +47,7 @@ def collect_maps(cfg) -> list[dict]:
             maps[(path, tex)] = {"name": name, "path": o.normal_map, "key": f"scene.objects."
                                  f"{k}.normal_map", "objects": [], "textures": tex}
         maps[(path, tex)]["objects"].append(o.name)
-    return list(maps.values()) + gltf_normal_maps(cfg, names)
+    return list(maps.values()) + gltf_normal_maps(cfg, names, with_features)
 
 
 def _bar(total: int):
@@ -77,7 +78,9 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
                         **({"wrap": m["wrap"]} if "wrap" in m else {}),
                         **({"colour_textures": [Path(p).name if p else None
                                                 for p in m["textures"]]}
-                           if f is not None else {})}
+                           if f is not None and "material" not in m else {}),
+                        **({"material_features": m["material"][0]}
+                           if f is not None and "material" in m else {})}
                        for m, f in zip(maps, features)]}
     inputs = [m["path"] for m in maps] + sorted({p for m in maps for p in m["textures"] if p})
     with StageRun(cfg, Path(out_dir), "normalmap", params=params, inputs=inputs,
@@ -105,9 +108,9 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
 
 
 def _features(maps: list[dict], normals: list) -> list:
-    """Per map its (n, n, 6) colour features (Han07 eq 22; normalmap.colour_features) or
-    None."""
-    from sgpipe.normalmap.features import map_features
+    """Per map its (n, n, F) features (Han07 eq 22; normalmap.colour_features) or None:
+    kd / ks multipliers (F = 6), or a glTF material's kd, F0, ln roughness (F = 7)."""
+    from sgpipe.normalmap.features import gltf_map_features, map_features
     from sgpipe.render.setup import read_texture
     cache: dict = {}
 
@@ -115,7 +118,8 @@ def _features(maps: list[dict], normals: list) -> list:
         if path not in cache:
             cache[path] = read_texture(path, key)
         return cache[path]
-    return [map_features(*m["textures"], n.shape[0], read) for m, n in zip(maps, normals)]
+    return [gltf_map_features(*m["material"], n.shape[0]) if "material" in m
+            else map_features(*m["textures"], n.shape[0], read) for m, n in zip(maps, normals)]
 
 
 def _pyramids(normals: np.ndarray, texels: np.ndarray, sub: int, levels):
@@ -187,7 +191,11 @@ def _process(run: StageRun, nm, settings, name: str, normals: np.ndarray, texels
         pyr = fit_vmf_pyramid(normals, settings, progress=tick, fine=fine, features=features)
         run.timings[f"{name}.vmf_s"] = time.perf_counter() - t
         art.write_vmf(run, name, pyr.alpha, pyr.alpha_r, kappa_max=nm.kappa_max,
-                      aligned=nm.align, alpha_f=pyr.alpha_f)
+                      aligned=nm.align, alpha_f=pyr.alpha_f,
+                      feature_names=art.GLTF_FEATURE_NAMES
+                      if features is not None
+                      and features.shape[-1] == len(art.GLTF_FEATURE_NAMES)
+                      else art.FEATURE_NAMES)
         shade["vmf"] = [Q.vmf_level(a, ar, s, h) for a, ar in zip(pyr.alpha, pyr.alpha_r)]
     rows = [r for r in METHOD_ROWS if r in shade]
     errors = {r: [round(Q.rel_rms(np.asarray(shade[r][lev]), shade["truth"][lev]), 6)

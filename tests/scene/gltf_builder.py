@@ -137,6 +137,20 @@ def textured_quad(base_img=None, mr_img=None, *, base=(1.0, 1.0, 1.0), metallic=
                          base=base, metallic=metallic, roughness=roughness, wrap=wrap)
 
 
+def textured_quad_maps(base_img, mr_img, normal_img, *, base=(1.0, 1.0, 1.0), metallic=1.0,
+                       roughness=1.0) -> g.GLTF2:
+    """`textured_quad` with a normal texture too (REPEAT samplers; no TANGENT: MikkTSpace's
+    tangent runs along +x)."""
+    p = np.array([[-1, 1, 0], [1, 1, 0], [1, -1, 0], [-1, -1, 0]], np.float32)
+    n = np.array([[0, 0, 1]] * 4, np.float32)
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
+    idx = np.array([0, 3, 2, 0, 2, 1], np.uint16)
+    return primitive_doc(p, n, uv, idx, {"baseColorTexture": base_img,
+                                         "metallicRoughnessTexture": mr_img,
+                                         "normalTexture": normal_img},
+                         base=base, metallic=metallic, roughness=roughness, wrap=10497)
+
+
 def primitive_doc(p, n, uv, idx, images: dict, *, tangents=None, normal_scale=None,
                   base=(1.0, 1.0, 1.0), metallic=1.0, roughness=1.0, wrap=33071,
                   emissive=None, emissive_strength=None) -> g.GLTF2:

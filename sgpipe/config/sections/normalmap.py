@@ -34,8 +34,9 @@ class NormalmapSection:
         "Filter the colour textures of the objects sharing a map (their materials' "
         "render.material_textures kd_map / ks_map) together with its NDF (Han07 eq 22): each "
         "vMF lobe carries the mean colour of its own normals, so a coarse texel keeps which "
-        "colour belongs to which facet. false: vmf reads the colour's plain MIP, as the other "
-        "methods do.", True)
+        "colour belongs to which facet. A glTF material's base-colour and metallic-roughness "
+        "textures likewise: each lobe its own kd, F0 and roughness. false: vmf reads the "
+        "colour's plain MIP, as the other methods do.", True)
     align: bool = doc("Align lobes across neighbouring texels and levels (Han07 §7.3, eq 23) "
                       "so that trilinear interpolation of the textures stays accurate.", True)
     align_strength: float = doc("C′ of Han07's appendix: the eq 23 pull of a lobe's axis "

@@ -21,12 +21,13 @@
 #endif
 #define NM_POINT_CUT 30.0f  /* a lobe's D below e^{−30} of its peak at a point: skipped */
 
-/* The material's Fresnel averaged over a reflected lobe: o·h = c + uZ (Z ~ N(0, 1), the h-lobe's
- * offset towards o; u = sin θ_o / √λ_h), counted where n·i > 0 (Z > −t) and weighted by the
- * Jacobian's o·h, by a 9-point midpoint rule over Z ∈ [max(−t, −4), 4]. At a grazing view the
- * axis value F(c) is near F(0) = 1 for Schlick's (1 − o·h)⁵ while most of the lobe reflects at
- * a larger o·h. */
-inline float3 nm_fresnel_lobe(__global const float *m, float c, float u, float t) {
+/* ks × the material's Fresnel (nm_fres) averaged over a reflected lobe: o·h = c + uZ (Z ~
+ * N(0, 1), the h-lobe's offset towards o; u = sin θ_o / √λ_h), counted where n·i > 0 (Z > −t)
+ * and weighted by the Jacobian's o·h, by a 9-point midpoint rule over Z ∈ [max(−t, −4), 4]. At
+ * a grazing view the axis value F(c) is near F(0) = 1 for Schlick's (1 − o·h)⁵ while most of
+ * the lobe reflects at a larger o·h. */
+inline float3 nm_fresnel_lobe(__global const float *m, float3 ks, int model, float c, float u,
+                              float t) {
     float z0 = fmax(-t, -4.0f), dz = (4.0f - z0) / 9.0f;
     float3 num = (float3)(0.0f);
     float den = 0.0f;
@@ -34,10 +35,10 @@ inline float3 nm_fresnel_lobe(__global const float *m, float c, float u, float t
         float z = z0 + ((float)k + 0.5f) * dz;
         float x = clamp(c + u * z, 0.0f, 1.0f);
         float w = exp(-0.5f * z * z) * x;
-        num += w * mf_fresnel(m, x);
+        num += w * nm_fres(m, ks, model, x);
         den += w;
     }
-    return den > 0.0f ? num / den : mf_fresnel(m, c);
+    return den > 0.0f ? num / den : nm_fres(m, ks, model, c);
 }
 
 /* The factors of the BRDF × cosine other than D, per unit of the warped SG, averaged over the
@@ -79,20 +80,20 @@ inline float3 nm_env_factor(__global const float *m, float3 ks, int model, float
              + u * 0.39894228f * (exp(-0.5f * t * t) - exp(-0.5f * t2 * t2))
              + co * erfc(0.70710678f * t2);
     }
-    return ks * nm_fresnel_lobe(m, co, u, t) * (g2 / (co * co));
+    return nm_fresnel_lobe(m, ks, model, co, u, t) * (g2 / (co * co));
 }
 
 /* The same factors at one direction p of the reflected lobe (no average: the sub-lobes' relative
  * weights), times the fraction `above` of the sub-lobe above n's horizon; Fresnel's channel
  * mean. */
-inline float nm_env_point(__global const float *m, int model, float3 n, float3 ol, float3 p,
-                          float a, float above) {
+inline float nm_env_point(__global const float *m, float3 ks, int model, float3 n, float3 ol,
+                          float3 p, float a, float above) {
     float co = dot(n, ol), ci = dot(n, p);
     if (ci <= 0.0f) return 0.0f;
     float3 h = normalize(ol + p);
     float ch = dot(n, h), oh = fmax(dot(ol, h), 0.0f);
     if (model == NM_BLINN) return above * ci * oh / co;
-    float3 F = mf_fresnel(m, oh);
+    float3 F = model == NM_GLTF ? nm_fres(m, ks, model, oh) : mf_fresnel(m, oh);
     return above * (F.x + F.y + F.z) * (1.0f / 3.0f) * nm_mf_g(model, ci, co, ch, oh, a) * oh
            / (co * co);
 }
@@ -168,7 +169,7 @@ inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 
         float above = 0.5f * erfc(-0.70710678f * dot(n, q) / sx);
         pk[k] = normalize(nm_lift(q, n, fmin(sx, 0.5f)));
         wk[k] = (k == 0 ? 2.0f / 3.0f : 1.0f / 6.0f)
-                * nm_env_point(m, model, n, ol, pk[k], a, above);
+                * nm_env_point(m, ks, model, n, ol, pk[k], a, above);
         tot += wk[k];
     }
     if (tot <= 0.0f) return (float3)(0.0f);

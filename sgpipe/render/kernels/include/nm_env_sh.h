@@ -72,7 +72,7 @@ inline float3 nm_sh8_factor(__global const float *m, float3 ks, int model, float
     float co = dot(mu, o);
     if (co <= 1e-4f) return (float3)(0.0f);
     if (model == NM_BLINN) return ks * co;
-    return ks * mf_fresnel(m, co) * (nm_mf_g(model, co, co, 1.0f, co, a) / co);
+    return nm_fres(m, ks, model, co) * (nm_mf_g(model, co, co, 1.0f, co, a) / co);
 }
 
 #endif

@@ -34,7 +34,7 @@
             if (n0s[k].x <= 0.0f || ln <= 0.0f) continue;
             float wt = (1.0f - f) * (n0s[k].x / (float)ntap);
             float3 ckd = kd, cks = ks;
-            if (feat) {
+            if (feat && !featg) {           /* glTF features: the pixel's record at level 0 */
                 float4 c0 = n0f[2 * k] / n0s[k].x, c1 = n0f[2 * k + 1] / n0s[k].x;
                 ckd = c0.xyz;               /* the textures' values; × kd, ks below */
                 cks = (float3)(c0.w, c1.x, c1.y);
@@ -57,13 +57,8 @@
             float lr = length(r);
             if (lr <= 0.0f) continue;
             float kappa = nm_kappa_of(lr);
-            float sp = kappa > 1e20f ? s : kappa * s / (kappa + s);          /* eq 20 */
-            float a2 = nm_convolved_a2(model, s, kappa);                       /* eq 21 */
-            float3 mu = normalize(to_world(r / lr, T, B, N));
-            /* D amplitude (Cook–Torrance); GGX: −κ, the material's D convolved (nm_mf_d) */
-            float da = model == NM_GGX || model == NM_GLTF ? -kappa : s * s / a2;
-            float4 par = (float4)(da, sp, bnorm * (sp + 1.0f), sqrt(a2));
             float3 ckd = kd, cks = ks;
+            float sj = s;                   /* the lobe's material roughness (or exponent) */
             if (feat) {                     /* eq 22: the lobe's own features T(α·f)/T(α) */
                 float4 c0 = fea[2 * j], c1 = fea[2 * j + 1];
                 if (nbx > 0) {
@@ -74,7 +69,19 @@
                 }
                 ckd = c0.xyz / t.x;
                 cks = (float3)(c0.w, c1.x, c1.y) / t.x;
+                if (featg) {                /* glTF: kd, F0 and the lobe's mean ln roughness */
+                    float rj = clamp(exp(c1.z / t.x), NM_GLTF_MIN_R, 1.0f);
+                    sj = rj * rj;
+                }
             }
+            float sp = kappa > 1e20f ? sj : kappa * sj / (kappa + sj);       /* eq 20 */
+            float a2 = nm_convolved_a2(model, sj, kappa);                      /* eq 21 */
+            float3 mu = normalize(to_world(r / lr, T, B, N));
+            /* D amplitude (Cook–Torrance); GGX: −κ, the lobe's D convolved (nm_mf_d), the
+             * lobe's roughness before the convolution in the exponent's slot */
+            int ggx = model == NM_GGX || model == NM_GLTF;
+            float da = ggx ? -kappa : sj * sj / a2;
+            float4 par = (float4)(da, ggx ? sj : sp, bnorm * (sp + 1.0f), sqrt(a2));
             /* the box's texels repeat on a periodic map: their equal lobes shade once */
             if (nm_merge_tap(ax, lp, lkd, lks, n0l, nlob, mu, t.x, par, ckd, cks)) continue;
             lrl[nlob] = fmin(lr, 1.0f);
@@ -84,7 +91,8 @@
             ++nlob;
         }
     }
-    for (int j = 0; feat && j < nlob; ++j) {   /* eq 22: the material's kd, ks × features */
+    /* eq 22: the material's kd, ks × the features (glTF's are absolute) */
+    for (int j = 0; feat && !featg && j < nlob; ++j) {
         lkd[j] *= mat3(m, MAT_KD);
         lks[j] *= mat3(m, MAT_KS);
     }

@@ -66,7 +66,8 @@
 #define NM_GGX 4            /* GGX, separable Smith G1·G1 (model `ggx`) */
 #define NM_GLTF 5           /* GGX, height-correlated Smith G2 (`gltf_pbr`: its diffuse too) */
 #define NM_LIGHT_LAMBDA 2e4f  /* delta lights' sharpness for the SSDF horizon (shading.h cap) */
-#define NM_FEAT_SLOT 12     /* nm_brdf: the pyramid carries colour features (eq 22) */
+#define NM_FEAT_SLOT 12     /* nm_brdf: colour features (eq 22): 1 kd/ks multipliers, 2 glTF */
+#define NM_GLTF_MIN_R 0.06f /* glTF roughness floor (brdf.models.GLTF_MIN_ROUGHNESS) */
 #define NM_FOOT_SLOT 14     /* nm_brdf: render.normalmap_footprint (0 trilinear, 1 box) */
 #define NM_LSTAR_SLOT 15    /* nm_brdf: Han07 §5's l* ≈ √(4s) (normalmap_data.published_sh_order) */
 #define NM_BOX_TEXELS 9     /* box footprint: texels of its level it may overlap */
@@ -298,12 +299,13 @@ inline void nm_ggx_conv_lobes(float alpha, float kappa, float *lam, float *mu) {
 /* Microfacet D (the fit stage's peak-normalised form times M_o's 1/π and g_scale, i.e. what
  * multiplies F·G2/((n·i)(n·o))) at cosine ch for roughness a (Beckmann: e^{−tan²/a²}/(4πa²ch⁴);
  * Cook–Torrance: amp·e^{−(θ_h/a)²}/π; GGX: a²/(4π(ch²(a² − 1) + 1)²), or with amp = −κ < 0 — a
- * vmf lobe — the material's GGX (α = MAT_AV) convolved with vMF(κ), nm_ggx_conv_lobes). */
-inline float nm_mf_d(__global const float *m, int model, float ch, float a, float amp) {
+ * vmf lobe — the lobe's GGX of roughness a0 (the material's, or its own: eq 22) convolved with
+ * vMF(κ), nm_ggx_conv_lobes). */
+inline float nm_mf_d(int model, float ch, float a, float amp, float a0) {
     if (ch <= 0.0f) return 0.0f;
     if ((model == NM_GGX || model == NM_GLTF) && amp < 0.0f) {
         float lam[GGXG_K], mu[GGXG_K], d = 0.0f;
-        nm_ggx_conv_lobes(m[MAT_AV], -amp, lam, mu);
+        nm_ggx_conv_lobes(a0, -amp, lam, mu);
         for (int k = 0; k < GGXG_K; ++k) d += mu[k] * exp(lam[k] * (ch - 1.0f));
         return d;
     }
@@ -331,9 +333,19 @@ inline float nm_mf_g(int model, float ci, float co, float ch, float oh, float a)
     return fmin(1.0f, fmin(2.0f * ch * co / oh, 2.0f * ch * ci / oh));
 }
 
+/* A lobe's specular colour times the material's Fresnel at cosine c: ks·F(c); glTF lobes carry
+ * their F0 as ks (each lobe its own with material features, eq 22): Schlick's F0 + (1 − F0)(1 −
+ * c)⁵, the glTF BRDF's (its ks is 1). */
+inline float3 nm_fres(__global const float *m, float3 ks, int model, float c) {
+    if (model != NM_GLTF) return ks * mf_fresnel(m, c);
+    float x = 1.0f - clamp(c, 0.0f, 1.0f), x2 = x * x;
+    return ks + (1.0f - ks) * (x2 * x2 * x);
+}
+
 /* Specular BRDF × cosine (per unit irradiance, ks and Fresnel included) of one lobe about the
  * unit axis n: Blinn–Phong exponent e with normalisation `norm` (ρ·cos = norm (n·h)^e (n·i)),
- * or a microfacet model at roughness a with D amplitude `amp`. */
+ * or a microfacet model at roughness a with D amplitude `amp` (GGX: e holds the lobe's own
+ * roughness before its vMF, nm_mf_d's a0). */
 inline float3 nm_spec(__global const float *m, float3 ks, int model, float3 n, float3 o,
                       float3 i, float e, float norm, float a, float amp) {
     if (model == NM_LAMBERT) return (float3)(0.0f);
@@ -344,10 +356,10 @@ inline float3 nm_spec(__global const float *m, float3 ks, int model, float3 n, f
     float co = dot(n, ol);
     float3 h = normalize(ol + i);
     float ch = dot(n, h), oh = dot(ol, h);
-    float D = nm_mf_d(m, model, ch, a, amp);
+    float D = nm_mf_d(model, ch, a, amp, e);
     if (D <= 0.0f) return (float3)(0.0f);
     float G = nm_mf_g(model, ci, co, ch, oh, a);
-    return ks * mf_fresnel(m, oh) * (G * D / co);
+    return nm_fres(m, ks, model, oh) * (G * D / co);
 }
 
 #include "nm_env.h"

@@ -15,6 +15,7 @@
     float s = bp[0];                       /* Blinn–Phong exponent or microfacet roughness */
     int model = (int)bp[2];
     if (sv_ && model == NM_GLTF) s = m[MAT_AV];   /* the pixel's filtered roughness */
+    if (model == NM_GLTF) ks = mat3(m, MAT_F0);   /* glTF lobes carry F0 as ks (nm_fres) */
     int env_on = bp[13] > 0.0f && !(flags & FLAG_NO_ENV_SPECULAR);
     float3 o = normalize(to_world(lift(to_local(gview[gid].xyz, T, B, N), 0.01f), T, B, N));
 
@@ -121,8 +122,10 @@
     float4 lob[NM_MAX_LOBES];
     int nl = min(info.z, NM_MAX_LOBES);
     for (int j = 0; j < nl; ++j) lob[j] = (float4)(0.0f);
-    /* eq 22: each lobe's colour features α_j·(kd, ks) (two float4), filtered as α_j is */
+    /* eq 22: each lobe's colour features α_j·(kd, ks) (two float4), filtered as α_j is; a
+     * glTF material's (slot 2): α_j·(kd, F0, ln roughness), absolute (its factors applied) */
     int feat = info.w && bp[NM_FEAT_SLOT] > 0.5f;
+    int featg = feat && bp[NM_FEAT_SLOT] > 1.5f;
     float4 fea[2 * NM_MAX_LOBES];
     for (int j = 0; j < 2 * nl; ++j) fea[j] = (float4)(0.0f);
     /* Where level 0 takes part (weight 1 − f), its texels are read as the renderer and the
@@ -212,7 +215,7 @@
                 /* the tap's colour: the colour textures themselves over the tap's share of
                  * the footprint, as the reference reads them beside the bilinear normal (any
                  * texture resolution; the features hold the map's grid) */
-                if (feat) {
+                if (feat && !featg) {
                     float4 ck = kdt_ >= 0 ? tex_filtered(texels, texinfo[kdt_], texaff, kdt_,
                                                          uvk, tduv) : (float4)(1.0f);
                     float4 cs = kst_ >= 0 ? tex_filtered(texels, texinfo[kst_], texaff, kst_,

@@ -92,23 +92,42 @@
     }
 #else
     if (env_on) {
+        /* a textured glTF material's pixel record (gltf_pixel_record) re-set per lobe */
+        __global const float *mf_ = mats + OBJ_MAT(ob) * MAT_STRIDE;
+        __global float *rw_ = pxmat + gid * MAT_STRIDE;
+        int reset = model == NM_GLTF && sv_ && mf_[MAT_SVLOB] >= 0.0f;
         for (int j = 0; j < nlob; ++j) {
-            if ((model == NM_GGX || model == NM_GLTF) && ax[j].w == 1.0f && lp[j].w == s) {
+            int bare = (model == NM_GGX || model == NM_GLTF) && ax[j].w == 1.0f && lp[j].w == s;
+            if (bare || reset) {
                 /* the bare GGX material about a normal (level 0's taps, the plain MIP's
                  * lobe): the `sg` method's specular at that normal — the material's NDF
                  * lobes, each warped to three sub-lobes, energy-scaled — which holds GGX's
-                 * tail where one SG of the peak-matched roughness loses it at grazing views */
+                 * tail where one SG of the peak-matched roughness loses it at grazing views.
+                 * A filtered lobe of a textured glTF material likewise, the record set to the
+                 * lobe's F0 and to the GGX whose peak is its D's (eq 21's a = lp.w), then
+                 * back to the pixel's */
+                if (reset) {
+                    rw_[MAT_F0] = lks[j].x; rw_[MAT_F0 + 1] = lks[j].y;
+                    rw_[MAT_F0 + 2] = lks[j].z;
+                    gltf_record_alpha(mf_, rw_, lp[j].w, lp[j].w);
+                }
                 float4 q = quat_from_z(normalize(to_local(ax[j].xyz, T, B, N)));
                 float4 qi = quat_conj(q);
                 float3 op = lift(normalize(quat_rotate(qi, lift(to_local(o, T, B, N), 0.01f))),
                                  0.01f);
                 float3 es[SHARP_CACHE];
-                acc += lp[j].x * sg_lobes_specular(m, lobes, tables, lks[j], op, q, qi, T, B, N,
+                /* sg reads Fresnel from the record: a glTF lobe's ks (its F0) is the record's */
+                float3 bks = model == NM_GLTF ? mat3(m, MAT_KS) : lks[j];
+                acc += lp[j].x * sg_lobes_specular(m, lobes, tables, bks, op, q, qi, T, B, N,
                                                    x, &vis, 1, NM_EXACT_POINTS, 1, pyr, pyr_off,
                                                    pyr_res, pyr_lam, pyr_n, pyr_log_ratio,
                                                    env_mean, pyr_raw, raw_n, pyr_pts,
                                                    NM_EXACT_POINTS ? 0 : n_pts, env_scale,
                                                    lights, 0, es);
+                if (reset) {
+                    rw_[MAT_F0] = ks.x; rw_[MAT_F0 + 1] = ks.y; rw_[MAT_F0 + 2] = ks.z;
+                    gltf_record_alpha(mf_, rw_, s, s);
+                }
                 continue;
             }
             acc += lp[j].x * nm_spec_env(m, lks[j], model, ax[j].xyz, o, lp[j].y, lp[j].z,
@@ -176,7 +195,7 @@
                         float co = dot(nbar, ol);
                         float3 hb = normalize(ol + i);
                         float ch = dot(nbar, hb), oh = dot(ol, hb);
-                        spec += ks * mf_fresnel(m, oh)
+                        spec += nm_fres(m, ks, model, oh)
                                * (nm_mf_g(model, ci, co, ch, oh, s) * reff / co);
                     }
                 }

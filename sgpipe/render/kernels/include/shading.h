@@ -193,6 +193,26 @@ typedef struct {
     float4 q, qi;
 } Pixel;
 
+/* The roughness part of a textured gltf_pbr record r (gltf_pixel_record) from the material's
+ * factor record m: α_t = au, α = av, g_scale and the NDF lobes interpolated from the roughness
+ * grid at α (LOBE0, NLOBES, SVFRAC). The normal-map kernels re-set it per filtered lobe. */
+inline void gltf_record_alpha(__global const float *m, __global float *r, float au, float av) {
+    r[MAT_AU] = au; r[MAT_AV] = av;
+    r[MAT_GSCALE] = 1.0f / (4.0f * au * av);
+    r[MAT_SVFRAC] = 0.0f;
+    if (m[MAT_SVLOB] >= 0.0f) {
+        int ne = (int)m[MAT_SVN];
+        float g = (log(av) - log(m[MAT_SVA0])) / (log(m[MAT_SVA1]) - log(m[MAT_SVA0]))
+                  * (float)(ne - 1);
+        g = clamp(g, 0.0f, (float)(ne - 1));
+        int i0 = min((int)floor(g), ne - 2);
+        int step = (int)m[MAT_SVSTEP];
+        r[MAT_LOBE0] = m[MAT_SVLOB] + (float)(i0 * step);
+        r[MAT_NLOBES] = (float)(step - 1);
+        r[MAT_SVFRAC] = g - (float)i0;
+    }
+}
+
 /* A textured gltf_pbr material's record for one pixel (Wang09 §4.1: the model's parameters
  * textured, the reflectance built per pixel), written into the pixel's scratch record r:
  * kd = (1 − m) c, Schlick F0 = lerp(0.04, c, m) and roughness filtered over the footprint (ln r) —
@@ -232,23 +252,10 @@ inline void gltf_pixel_record(__global const float *m, __global float *r,
     float au = av + (1.0f - av) * s * s;
     r[MAT_KD] = kd.x; r[MAT_KD + 1] = kd.y; r[MAT_KD + 2] = kd.z;
     r[MAT_F0] = f0.x; r[MAT_F0 + 1] = f0.y; r[MAT_F0 + 2] = f0.z;
-    r[MAT_AU] = au; r[MAT_AV] = av;
-    r[MAT_GSCALE] = 1.0f / (4.0f * au * av);
     r[MAT_KDTEX] = -1.0f; r[MAT_KSTEX] = -1.0f;
     r[MAT_DIFFUSE] = 3.0f;     /* glTF's (the factors' record says none where metallic = 1) */
     r[MAT_SV] = 1.0f;
-    r[MAT_SVFRAC] = 0.0f;
-    if (m[MAT_SVLOB] >= 0.0f) {
-        int ne = (int)m[MAT_SVN];
-        float g = (log(av) - log(m[MAT_SVA0])) / (log(m[MAT_SVA1]) - log(m[MAT_SVA0]))
-                  * (float)(ne - 1);
-        g = clamp(g, 0.0f, (float)(ne - 1));
-        int i0 = min((int)floor(g), ne - 2);
-        int step = (int)m[MAT_SVSTEP];
-        r[MAT_LOBE0] = m[MAT_SVLOB] + (float)(i0 * step);
-        r[MAT_NLOBES] = (float)(step - 1);
-        r[MAT_SVFRAC] = g - (float)i0;
-    }
+    gltf_record_alpha(m, r, au, av);
 }
 
 inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const float4 *gtan,
