@@ -67,11 +67,11 @@ def gltf_map_features(params: dict, base, mr, n: int) -> np.ndarray | None:
     """(n, n, 7) features of a glTF material (GLTF_FEATURE_NAMES) on an n × n map: per texel
     the BRDF's linear parameters kd, F0 and ln roughness, factors `params` applied
     (render.setup.linear_parameters), then `resample`d — a box mean is the BRDF's mean for a
-    given roughness and the roughness' geometric mean. `base`, `mr`: the material's
-    GltfTextures (None: no such texture); both None: None."""
+    given roughness and the roughness' geometric mean. Textures under a KHR_texture_transform
+    (or on grids of their own) are read at sub-samples of each map texel (`sampled_linear`).
+    `base`, `mr`: the material's GltfTextures (None: no such texture); both None: None."""
     if base is None and mr is None:
         return None
-    from dataclasses import replace
     from types import SimpleNamespace
 
     from sgpipe.render.setup import linear_parameters
@@ -79,10 +79,37 @@ def gltf_map_features(params: dict, base, mr, n: int) -> np.ndarray | None:
         base_color=np.broadcast_to(np.asarray(params.get("base_color", 1.0), float), (3,)),
         metallic=float(params.get("metallic", 1.0)), roughness=float(params.get("roughness", 1.0)))
     lin = linear_parameters(g, base, mr)
-    if lin is None:             # the two textures on different grids: each on the map's first
-        base, mr = (None if t is None else replace(t, image=resample(t.image, n))
-                    for t in (base, mr))
-        lin = linear_parameters(g, base, mr)
+    if lin is None or lin[1].matrix is not None:
+        return sampled_linear(g, base, mr, n)
     (a, b), _ = lin
     return np.concatenate([resample(a[..., :3], n), resample(b[..., :3], n),
                            resample(a[..., 3:4], n)], -1)
+
+
+#: sub-samples per map texel at most (per axis), and in all
+MAX_SUB, MAX_SAMPLES = 8, 1 << 22
+
+
+def sampled_linear(g, base, mr, n: int) -> np.ndarray:
+    """`gltf_map_features` by sampling: each map texel's mean of kd, F0, ln r over S × S
+    sub-samples, the textures read bilinearly through their transforms and samplers
+    (GltfTexture.bilinear), S the textures' texels across a map texel (≤ MAX_SUB, and
+    S² n² ≤ MAX_SAMPLES)."""
+    from dataclasses import replace
+
+    from sgpipe.render.setup import linear_parameters
+    span = 1.0
+    for t in (base, mr):
+        if t is not None:
+            m = np.eye(3) if t.matrix is None else np.asarray(t.matrix, float)
+            span = max(span, max(t.image.shape[:2]) * np.abs(m[:2, :2]).sum(1).max() / n)
+    sub = int(min(np.ceil(span), MAX_SUB, max(1, np.sqrt(MAX_SAMPLES) // n)))
+    c = (np.arange(n * sub) + 0.5) / (n * sub)
+    u, v = np.meshgrid(c, 1.0 - c)                   # rows from the top (v = 1), as the map's
+    uv = np.stack([u.ravel(), v.ravel()], -1)
+    read = [None if t is None else replace(t, image=t.bilinear(uv).reshape(n * sub, n * sub,
+                                                                           -1), matrix=None)
+            for t in (base, mr)]
+    (a, b), _ = linear_parameters(g, *read)
+    both = np.concatenate([a[..., :3], b[..., :3], a[..., 3:4]], -1)
+    return both.reshape(n, sub, n, sub, -1).mean(axis=(1, 3))

@@ -21,7 +21,7 @@ def gltf_normal_maps(cfg, taken: set[str], with_features: bool = False) -> list[
     `<file stem>_<material>` (unique against `taken`, which grows). BadInput for a texture
     the pyramids cannot hold: not square power-of-two, MIRRORED_REPEAT, KHR_texture_transform.
     `with_features`: also `material` = (factors, base-colour, metallic-roughness GltfTexture)
-    where the material has such textures on the normal texture's UVs (`material_textures`)."""
+    where the material has either texture (`material_textures`)."""
     from sgpipe.normalmap.read import validate_texels
     from sgpipe.render.setup import _gltf_material, gltf_normal_texture
     assets: dict = {}
@@ -70,12 +70,8 @@ def gltf_normal_maps(cfg, taken: set[str], with_features: bool = False) -> list[
 
 def material_textures(asset, index: int):
     """(base-colour, metallic-roughness) GltfTextures of a glTF material that has either, as the
-    features of its normal texture's pyramid (Han07 eq 22), or None: none, or one under a
-    KHR_texture_transform (its texels are not on the normal texture's grid)."""
+    features of its normal texture's pyramid (Han07 eq 22), or None."""
     from sgpipe.io.gltf_textures import material_texture
     base = material_texture(asset, index, "baseColorTexture")
     mr = material_texture(asset, index, "metallicRoughnessTexture")
-    if (base is None and mr is None) or any(t is not None and t.matrix is not None
-                                            for t in (base, mr)):
-        return None
-    return base, mr
+    return None if base is None and mr is None else (base, mr)

@@ -119,3 +119,30 @@ def test_stage_stores_the_material_features(tmp_path):
         for s in (1.0, -1.0):
             assert (sx == s).any()
             assert np.allclose(feat[sx == s], want[s], atol=2e-3)
+
+
+def test_transformed_textures_are_sampled_through_their_transform():
+    """Features of random base-colour / metallic-roughness textures: read by sampling
+    (`sampled_linear`) they equal the box means of the per-texel kd, F0, ln r; under a
+    KHR_texture_transform of scale 2 the map of twice the side holds them twice per axis
+    (the textures repeat in its UV square); per-texel products, not products of means."""
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from sgpipe.io.gltf_textures import GltfTexture
+    from sgpipe.normalmap import features as F
+    rng = np.random.default_rng(3)
+    base, mr = GltfTexture(rng.random((64, 64, 3))), GltfTexture(rng.random((64, 64, 3)))
+    params = {"base_color": [1.0, 0.5, 0.25], "metallic": 0.9, "roughness": 0.8}
+    exact = F.gltf_map_features(params, base, mr, 16)
+    g = SimpleNamespace(base_color=np.array(params["base_color"]), metallic=0.9, roughness=0.8)
+    assert np.allclose(F.sampled_linear(g, base, mr, 16), exact, atol=1e-12)
+    scale2 = np.diag([2.0, 2.0, 1.0])
+    tiled = F.gltf_map_features(params, replace(base, matrix=scale2),
+                                replace(mr, matrix=scale2), 32)
+    for rows in (slice(0, 16), slice(16, 32)):
+        for cols in (slice(0, 16), slice(16, 32)):
+            assert np.allclose(tiled[rows, cols], exact, atol=1e-12)
+    c = np.asarray(params["base_color"]) * base.image.reshape(16, 4, 16, 4, 3).mean((1, 3))
+    m = np.clip(0.9 * mr.image[..., 2].reshape(16, 4, 16, 4).mean((1, 3)), 0, 1)[..., None]
+    assert np.abs(exact[..., :3] - (1 - m) * c).max() > 1e-3     # products of means differ
