@@ -341,7 +341,10 @@ def main(argv: list[str] | None = None) -> int:
     from sgpipe.experiments import han07_colour as HC
     colour = HC.run(a.out / "colour", size=size, spp=spp,
                     minifications=(16,) if a.quick else MINIFICATIONS, log=log)
-    tg = targets(table) + HC.targets(colour)
+    from sgpipe.experiments import han07_material as HM
+    material = HM.run(a.out / "material", size=size, spp=spp,
+                      minifications=(16,) if a.quick else MINIFICATIONS, log=log)
+    tg = targets(table) + HC.targets(colour) + HM.targets(material)
     fig_dir = a.results.parent / "figures"
     fig_dir.mkdir(parents=True, exist_ok=True)
     sheets = []
@@ -359,23 +362,24 @@ def main(argv: list[str] | None = None) -> int:
                                              for m, cell in rows.items()}
                         for k, rows in table.items()},
                "fig7": f7["rows"], "fig3_ndf": f3, "fig3_render": (f3r or {}).get("rows"),
-               "colour": {f"{m:g}": {c: {x: v[x] for x in ("psnr", "flip", "error") if x in v}
-                                     for c, v in cell.items() if c != "reference"}
-                          for m, cell in colour.items()},
+               **{name: {f"{m:g}": {c: {x: v[x] for x in ("psnr", "flip", "error") if x in v}
+                                    for c, v in cell.items() if c != "reference"}
+                         for m, cell in rows.items()}
+                  for name, rows in (("colour", colour), ("material", material))},
                "targets": tg}
     (a.out / "han07.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
     write_report(a.results, table, f7, f3, f3r, tg, sheets, columns(), missing_baselines(),
                  size=size, spp=spp, seconds=time.perf_counter() - t0, quick=a.quick,
                  footprint=a.footprint, bilinear_samples=a.bilinear_samples,
-                 colour=HC.section(colour),
+                 colour=HC.section(colour) + HM.section(material),
                  command="python -m sgpipe.experiments.han07 " + " ".join(
                      sys.argv[1:] if argv is None else argv))
     for t in tg:
         log(f"[han07] target {'MET' if t['met'] else 'NOT MET'}: {t['name']} — {t['subject']}: "
             f"{t['value']}")
     log(f"[han07] wrote {a.results} in {time.perf_counter() - t0:.0f} s")
-    failed = sum("error" in v for rows in [*table.values(), colour] for cell in rows.values()
-                 for v in cell.values())
+    failed = sum("error" in v for rows in [*table.values(), colour, material]
+                 for cell in rows.values() for v in cell.values())
     if failed:
         log(f"[han07] {failed} renders failed (named in the report)")
     return 1 if failed else 0
