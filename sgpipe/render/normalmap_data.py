@@ -20,9 +20,11 @@ glTF sampler's CLAMP_TO_EDGE per axis, else repeat). `nm_brdf` NM_BRDF_STRIDE fl
 per object: Blinn–Phong exponent s or microfacet roughness (Beckmann, GGX α, Cook–Torrance m),
 max taps along the footprint's major axis (1: isotropic), model (BRDF_MODELS), K (slots 0–3);
 the pyramid's features (slot 12: 0 none, 1 kd / ks multipliers, 2 a glTF material's);
-environment specular on (1/0, slot 13), footprint filter (0 trilinear, 1 box: render.normalmap_footprint, slot 14), Han07 §5's l*
-(published_sh_order, slot 15); ρ̂_0 … ρ̂_16 of the specular function the SH method filters
-(eq 11, slots RHO0 …); the rest 0.
+environment specular on (1/0, slot 13), footprint filter (0 trilinear, 1 box:
+render.normalmap_footprint, slot 14), Han07 §5's l* (published_sh_order, slot 15); ρ̂_0 … ρ̂_16
+of the specular function the SH method filters (eq 11, slots RHO0 …); a textured glTF
+material's table of GGX ρ̂_l over α (`with_rho_table`: 1 + its float4 offset in `data`, slot
+33, 0 none: its header (ln α_0, Δ ln α, entries, 0), then 5 float4 per entry); the rest 0.
 `nm_env_sh` float4 per coefficient: the environment's radiance SH L_lm (world, l ≤ 2).
 `nm_env_sh8` one zero row here: vmf_han07 binds Han07 §8's tables in its place
 (Renderer.method_bindings, sgpipe.render.han07_env.environment_sh8)."""
@@ -32,6 +34,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -47,6 +50,9 @@ ENV_SLOT = 13        # environment specular on
 FEAT_SLOT = 12       # the pyramid carries colour features (nm_shade.h NM_FEAT_SLOT)
 FOOT_SLOT = 14       # footprint filter (nm_shade.h NM_FOOT_SLOT): 0 trilinear, 1 box
 LSTAR_SLOT = 15      # Han07 §5's l* of the material (published_sh_order; nm_shade.h NM_LSTAR_SLOT)
+RHOTAB_SLOT = 33     # 1 + the float4 offset of a ρ̂ table over α in data (nm_shade.h), 0 none
+#: the GGX ρ̂ table's roughness grid (ln α, α = r², r from glTF's floor 0.06 to 1) and size
+RHO_TABLE_ALPHAS = 48
 FOOTPRINTS = {"trilinear": 0, "box": 1}
 SH_LMAX = 16         # l* ≤ 16 (nm_shade.h NM_MAX_SH4 = 73 float4)
 SH_METHODS = {"nm_sh", "nm_sh_han07"}      # the methods that read the SH pyramid
@@ -173,6 +179,21 @@ class NormalMapData:
         return cls(data, np.asarray(levels or [(0, 1, 0, 0)], np.int32).reshape(-1, 4),
                    np.asarray(info, np.int32).reshape(-1, 4), brdf, np.zeros((1, 4), np.float32))
 
+    def with_rho_table(self, objects: list[bool]) -> "NormalMapData":
+        """Append the GGX specular function's ρ̂_l (l ≤ SH_LMAX) on a grid of α (`rho_table`) to
+        `data` for the `objects` whose material is textured glTF: nm_sh (eq 12) and vmf_han07
+        (eq 26) read it at the pixel's (a lobe's) filtered roughness (nm_rho_at)."""
+        if not any(objects):
+            return self
+        la, rows = rho_table()
+        head = np.array([[la[0], la[1] - la[0], len(la), 0.0]], np.float32)
+        body = np.zeros((len(la), 4 * 5), np.float32)         # NM_RHO_F4 float4 per entry
+        body[:, :rows.shape[1]] = rows
+        off = len(self.data)
+        self.data = np.concatenate([self.data, head, body.reshape(-1, 4)])
+        self.brdf[np.asarray(objects, bool), RHOTAB_SLOT] = off + 1
+        return self
+
     def with_environment(self, light_sh: np.ndarray | None, specular: bool) -> "NormalMapData":
         """The environment's radiance SH (first 9 coefficients, world) and whether its
         specular part is shaded (no environment: skip the Γ_L lookups)."""
@@ -247,11 +268,25 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
     data = NormalMapData.pack(pyramids, [prm for _, prm in lobes], taps,
                               [BRDF_MODELS[mdl] for mdl, _ in lobes], rho,
                               footprint=cfg.render.normalmap_footprint)
+    from sgpipe.render.setup import gltf_textures
+    assets: dict = {}
+    textured = [spec.model == "gltf_pbr" and gltf_textures(cfg, o, assets) is not None
+                for spec, o in zip(specs, objs)]
+    data = data.with_rho_table(textured)
     light_sh = None
     if cfg.envmap is not None:
         from sgpipe.artifacts.envmap import read_light_sh
         light_sh = np.asarray(read_light_sh(Path(out_dir) / "envmap")["coeffs"], np.float64)
     return data.with_environment(light_sh, cfg.envmap is not None)
+
+
+@lru_cache(maxsize=1)
+def rho_table() -> tuple[np.ndarray, np.ndarray]:
+    """(ln α (RHO_TABLE_ALPHAS,), ρ̂_l (RHO_TABLE_ALPHAS, SH_LMAX + 1)) of the GGX specular
+    function (specular_sh_coeffs) for α = r², r from glTF's floor to 1, uniform in ln α."""
+    from sgpipe.brdf.models import GLTF_MIN_ROUGHNESS
+    la = np.linspace(2.0 * math.log(GLTF_MIN_ROUGHNESS), 0.0, RHO_TABLE_ALPHAS)
+    return la, np.array([specular_sh_coeffs("gltf_pbr", math.exp(x), SH_LMAX) for x in la])
 
 
 def published_sh_order(model: str, param: float) -> int:

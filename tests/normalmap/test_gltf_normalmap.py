@@ -10,7 +10,7 @@ import pytest
 
 from tests.scene import gltf_builder as gb
 
-NM = ("normals_mip", "vmf", "toksvig", "engine_bake")
+NM = ("normals_mip", "vmf", "toksvig", "engine_bake", "vmf_han07")
 
 
 @pytest.mark.parametrize("light", [True, False], ids=["point_light", "environment"])
@@ -18,7 +18,7 @@ def test_textured_halves_render_as_their_uniform_materials(tmp_path, light):
     """The halves quad (left: dielectric roughness 0.3, right: metal roughness 0.7; no normal
     texture): away from the seam each normal-map method renders each half within 2 % of its
     own render of that half's uniform material (the factors — roughness 1, metal — are ≥ 20 %
-    off)."""
+    off); vmf_han07's SH environment (eq 26) with ρ̂ at the pixel's roughness too."""
     tex, uniform = gb.halves_quads(tmp_path)
     img = gb.render_quad(tmp_path, tex, "tex", NM, light=light)
     half = {tag: gb.render_quad(tmp_path, glb, tag, NM, light=light)

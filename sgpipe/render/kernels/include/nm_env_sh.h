@@ -34,7 +34,7 @@ inline float3 nm_sh8_diffuse(__global const float4 *sh8, float3 mu, float kappa)
 
 /* Eq 26: Σ_{l ≤ 8} ρ̂_l e^{−l²/2κ} Σ_m L'_lm(o) Y_lm(μ) — L' bilinear in the view table
  * (θ from the map's +z at cell centres, clamped; φ wrapped). */
-inline float3 nm_sh8_specular(__global const float4 *sh8, __global const float *rho, float3 o,
+inline float3 nm_sh8_specular(__global const float4 *sh8, const float *rho, float3 o,
                               float3 mu, float kappa) {
     float y[NM_SH8_K];
     nm_sh_eval(env_to_map(mu), NM_SH8_L, y);

@@ -35,8 +35,28 @@ inline void nm_sh_eval(float3 d, int lmax, float *y) {
     }
 }
 
+/* ρ̂_l (eq 11), l < NM_RHO_N, into rho: the material's (nm_brdf's ρ̂ slots) or, where the
+ * object has a table over α (slot NM_RHOTAB_SLOT: 1 + its float4 offset in d; a textured glTF
+ * material's) and a ≥ 0, the GGX specular function's at roughness a, linear in ln α between
+ * the table's entries (header (ln α_0, Δ ln α, entries, 0), then NM_RHO_F4 float4 each). */
+inline void nm_rho_at(__global const float4 *d, __global const float *bp, float a, float *rho) {
+    int off = (int)bp[NM_RHOTAB_SLOT] - 1;
+    if (off < 0 || a < 0.0f) {
+        for (int l = 0; l < NM_RHO_N; ++l) rho[l] = bp[NM_RHO_SLOT + l];
+        return;
+    }
+    float4 h = d[off];
+    int ne = (int)h.z;
+    float x = clamp((log(fmax(a, 1e-12f)) - h.x) / h.y, 0.0f, (float)(ne - 1));
+    int i = min((int)x, ne - 2);
+    float t = x - (float)i;
+    __global const float *e0 = (__global const float *)(d + off + 1 + i * NM_RHO_F4);
+    for (int l = 0; l < NM_RHO_N; ++l)
+        rho[l] = (1.0f - t) * e0[l] + t * e0[4 * NM_RHO_F4 + l];
+}
+
 /* Eq 12: Σ_{l ≤ lmax} ρ̂_l Σ_m γ_lm Y_lm(ω) with the basis values y. */
-inline float nm_sh_dot(const float *g, const float *y, __global const float *rho, int lmax) {
+inline float nm_sh_dot(const float *g, const float *y, const float *rho, int lmax) {
     float acc = 0.0f;
     for (int l = 0; l <= lmax; ++l) {
         float b = 0.0f;

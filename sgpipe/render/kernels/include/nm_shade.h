@@ -59,6 +59,9 @@
 #define NM_MAX_SH4 73       /* float4 of γ_lm per texel: (l* + 1)² ≤ 289 (l* ≤ 16) */
 #define NM_BRDF_STRIDE 36   /* floats per object in nm_brdf */
 #define NM_RHO_SLOT 16      /* nm_brdf: ρ̂_0 … ρ̂_16 of the specular function (eq 11) */
+#define NM_RHO_N 17
+#define NM_RHO_F4 5         /* float4 per entry of a ρ̂ table (nm_rho_at) */
+#define NM_RHOTAB_SLOT 33   /* nm_brdf: 1 + the ρ̂ table's float4 offset in nm_data, 0 none */
 #define NM_LAMBERT 0
 #define NM_BLINN 1
 #define NM_BECKMANN 2

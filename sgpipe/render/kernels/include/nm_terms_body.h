@@ -84,10 +84,13 @@
     /* vmf_han07: eq 26 per lobe, the whole map (its point set too) through L' */
     if (env_on && model != NM_LAMBERT) {
         float3 es = (float3)(0.0f);
-        for (int j = 0; j < nlob; ++j)
+        for (int j = 0; j < nlob; ++j) {
+            float rj[NM_RHO_N];     /* a textured glTF lobe's ρ̂ at its own roughness */
+            nm_rho_at(nm_data, bp, sv_ && model == NM_GLTF ? lp[j].y : -1.0f, rj);
             es += lp[j].x * nm_sh8_factor(m, lks[j], model, ax[j].xyz, o, lp[j].w)
-                  * fmax(nm_sh8_specular(nm_env_sh8, bp + NM_RHO_SLOT, o, ax[j].xyz,
+                  * fmax(nm_sh8_specular(nm_env_sh8, rj, o, ax[j].xyz,
                                          j < n0l ? 1e30f : nm_kappa_of(lrl[j])), 0.0f);
+        }
         acc += env_scale * es;
     }
 #else
@@ -186,7 +189,9 @@
                 float3 ol = nm_lift(o, nbar, 0.01f);
                 float3 h = normalize(o + i);          /* o: lifted in the geometric frame */
                 nm_sh_eval(to_local(h, T, B, N), lsh, yb);
-                float reff = fmax(nm_sh_dot(g, yb, bp + NM_RHO_SLOT, lsh), 0.0f);      /* eq 12 */
+                float rho[NM_RHO_N];    /* a textured glTF material's at the pixel's α */
+                nm_rho_at(nm_data, bp, sv_ && model == NM_GLTF ? s : -1.0f, rho);
+                float reff = fmax(nm_sh_dot(g, yb, rho, lsh), 0.0f);               /* eq 12 */
                 float ci = dot(nbar, i);
                 if (ci > 0.0f) {
                     if (model == NM_BLINN) {
