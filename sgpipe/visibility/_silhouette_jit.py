@@ -205,9 +205,7 @@ def probe_texels(rr, r0, r1, region, m, t):
 def fill_regions(vis, rr, r0, r1, region, value):
     """vis[row, c0:c1] = value[region] for every run (value per region, bool)."""
     for i in range(rr.shape[0]):
-        v = value[region[i]]
-        for c in range(r0[i], r1[i]):
-            vis[rr[i], c] = v
+        vis[rr[i], r0[i]:r1[i]] = value[region[i]]
 
 
 @njit(cache=True)
