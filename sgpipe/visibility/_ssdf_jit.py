@@ -109,6 +109,38 @@ def nearest_boundary_angle(q, bound, block, bcen, bcos, bsin, pts, start, tcen, 
 
 
 @njit(cache=True)
+def point_caps(pts, start, tcen, tcos, tsin):
+    """Bounding caps of each tile's points (CSR `start`), where tighter than the tile's own
+    cap (tcen/tcos/tsin): centre = normalised mean, radius = largest angle, inflated like
+    the static caps. Empty tiles keep their cap (never visited)."""
+    n = start.shape[0] - 1
+    cen = tcen.copy()
+    cs = tcos.copy()
+    sn = tsin.copy()
+    for k in range(n):
+        if start[k + 1] <= start[k]:
+            continue
+        x = y = z = 0.0
+        for p in range(start[k], start[k + 1]):
+            x += pts[p, 0]
+            y += pts[p, 1]
+            z += pts[p, 2]
+        ln = np.sqrt(x * x + y * y + z * z)
+        if ln <= 1e-9:
+            continue
+        x, y, z = x / ln, y / ln, z / ln
+        lo = 1.0
+        for p in range(start[k], start[k + 1]):
+            lo = min(lo, x * pts[p, 0] + y * pts[p, 1] + z * pts[p, 2])
+        r = np.arccos(min(1.0, max(-1.0, lo))) * (1.0 + 1e-9) + 1e-12
+        if np.cos(r) > tcos[k]:
+            cen[k, 0], cen[k, 1], cen[k, 2] = x, y, z
+            cs[k] = np.cos(r)
+            sn[k] = np.sin(r)
+    return cen, cs, sn
+
+
+@njit(cache=True)
 def block_fraction(vis, res):
     """(T, T) bool → (R, R) float32 mean over k×k blocks (k = T/R)."""
     k = vis.shape[0] // res

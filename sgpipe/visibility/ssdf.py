@@ -70,7 +70,7 @@ def nearest_boundary_angle(vis: np.ndarray, res: int, bound: np.ndarray | None =
     pts, start = _boundary_by_tile(vis, tile)
     block = min(_QUERY_BLOCK, res)
     bcen, bcos, bsin = query_caps(res, block)
-    tcen, tcos, tsin = boundary_tile_caps(t, tile)
+    tcen, tcos, tsin = _ssdf_jit.point_caps(pts, start, *boundary_tile_caps(t, tile))
     if bound is None:
         bound = np.full((res, res), np.pi)
     return _ssdf_jit.nearest_boundary_angle(texel_dirs(res), np.asarray(bound, np.float64),
