@@ -9,13 +9,15 @@
    "equal SSDF error" means max |S_adaptive − S_full| over every texel of the check vertices
    ≤ one trace-texel spacing (√(2π)/512 ≈ 0.0049 rad), the resolution limit of the full
    result itself (its error against a closed-form SSDF, tests/visibility/test_trace.py).
-   The per-vertex CPU ratio (trace + SSDF) is measured here.
+   The per-vertex CPU ratio (trace + SSDF, ~95 % of the stage) is gated here: ≤ 60/254
+   (issue 35: ~254 s on 2 cores with `full`, goal ≤ 60 s).
 3. The whole scene (~20.6k vertices) through the real stage with `sampling: adaptive`, 48 PCA
    terms, on every core: its CPU time against full's, extrapolated from the same run (the
    workers' CPU time divided by item 2's per-vertex ratio, plus the same main-process CPU:
-   loading, PCA, report): target ≤ 60/254 (issue 35: ~254 s on 2 cores with `full`, goal
-   ≤ 60 s). CPU time / cores, wall time and load average are printed beside it; the cores
-   are shared with other work, so the gate is the ratio.
+   loading, PCA, report): target ≤ 60/254 as well. CPU time / cores, wall time and load
+   average are printed beside it; the cores are shared with other work, so the gates are
+   ratios. The main process's CPU time (mostly the PCA's matrix products, the same for both
+   samplings) swings up to 2× with the machine's load, which moves this ratio by ~0.03.
 
     .venv/bin/python -m benchmarks visibility
 """
@@ -216,7 +218,9 @@ def main() -> int:
     load0 = os.getloadavg()[0]
     ratio, frac, mism, dmean, dmax, ms_full, ms_ad = adaptive_vs_full(geoms)
     print(f"adaptive vs full on 48 vertices (same run): CPU per vertex {ms_ad:.2f} / "
-          f"{ms_full:.2f} ms = {ratio:.3f} (trace + SSDF); {100 * frac:.2f}% of the rays; "
+          f"{ms_full:.2f} ms = {ratio:.3f} (target <= {STAGE_RATIO_TARGET:.3f}; trace + "
+          f"SSDF, x {FULL_STAGE_S:.0f} s = {ratio * FULL_STAGE_S:.0f} s); "
+          f"{100 * frac:.2f}% of the rays; "
           f"{100 * mism:.4f}% of trace texels differ; SSDF |diff| mean {dmean:.2e} rad, max "
           f"{dmax:.2e} rad (target <= {ERR_MAX_RAD:.4f}); load average {load0:.1f} -> "
           f"{os.getloadavg()[0]:.1f}")
@@ -267,7 +271,7 @@ def main() -> int:
             f"{e[k]['mean_abs']:.4f} / {e[k]['max_abs']:.4f}"
             for k in ("err_exact_raw", "err_exact_pca", "err_sigmoid_pca",
                       "err_sigmoid_published_pca")))
-    ok = (r_trace >= RATIO_TARGET and dmax <= ERR_MAX_RAD
+    ok = (r_trace >= RATIO_TARGET and dmax <= ERR_MAX_RAD and ratio <= STAGE_RATIO_TARGET
           and stage_ratio <= STAGE_RATIO_TARGET)
     return 0 if ok else 1
 

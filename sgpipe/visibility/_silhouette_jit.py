@@ -86,8 +86,9 @@ def silhouette_mark(p0, p1, fa, fb, flip, fn, fd, origin, minv, tol, t, step, pa
     p0/p1 (E, 3) edge ends, fa/fb (E,) adjacent faces (fb −1 open, −2 non-manifold), flip
     (E,) −1 where the two faces wind the edge the same way, fn (F, 3) unit face normals (0
     when degenerate) and fd (F,) their planes' offsets, origin (3,), minv (3, 3) world →
-    local, tol: distance below which the origin counts as in a face's plane. Returns (mark, all_marked) — all_marked when an edge passes
-    through the origin (no bound holds; the caller traces everything)."""
+    local, tol: distance below which the origin counts as in a face's plane (its edges then
+    count as contours). Returns (mark, all_marked) — all_marked when an edge passes through
+    the origin (no bound holds; the caller traces everything)."""
     mark = np.zeros((t, t), np.bool_)
     nf = fn.shape[0]
     side = np.empty(nf)

@@ -11,8 +11,9 @@ in trace.py traces three). `silhouette_mark` samples every projected edge at ste
 at most about one texel and marks the texels within `pad` = 1.5 texels (Chebyshev, on the
 concentric square) of each sample: both texels of every crossed pair are then marked, which
 needs pad ≥ 1 + (the bend of a one-texel arc on the square + half a step); brute force over
-random arcs at 32²–512² finds 1.1 enough (tests/visibility/test_silhouette.py). This is exact geometry; Embree's ray–triangle tests are not watertight in
-every case, so a ray through a shared edge can slip through where the full trace leaks.
+random arcs at 32²–512² finds 1.1 enough (tests/visibility/test_silhouette.py). This is
+exact geometry; Embree's ray–triangle tests are not watertight in every case, so a ray of
+the full trace can slip through a shared edge where the adaptive image has the occluder.
 """
 
 from __future__ import annotations

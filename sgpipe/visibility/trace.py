@@ -94,6 +94,7 @@ def occluded(scene, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
 
 
 def _visible(scene, origins, dirs) -> np.ndarray:
+    """Bool per ray: nothing hit (embreex's OCCLUDED query returns −1 for a miss)."""
     return scene.run(origins, dirs, query="OCCLUDED") == -1
 
 
@@ -222,5 +223,6 @@ def trace_chunk(task: TraceTask) -> TraceResult:
                        time.process_time() - c0)
 
 
-__all__ = ["TracedScene", "build_scene", "scene_from_file", "hemisphere_rays", "occluded", "trace_visibility",
-           "trace_visibility_counted", "RayBuffers", "TraceTask", "TraceResult", "trace_chunk"]
+__all__ = ["TracedScene", "build_scene", "scene_from_file", "hemisphere_rays", "occluded",
+           "trace_visibility", "trace_visibility_counted", "RayBuffers", "TraceTask",
+           "TraceResult", "trace_chunk"]
