@@ -138,6 +138,18 @@ def test_adaptive_equals_full_on_occluders_between_coarse_samples(name, tri):
                                   ssdf_from_visibility(full, RES))
 
 
+def test_faces_wound_the_other_way_keep_their_contours():
+    # the pole's side facing the vertex wound the other way: its contour edges join faces of
+    # opposite winding, which the edge table's flip accounts for
+    tri = _pole(0.03).copy()
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    near = n[:, 0] < -0.5 * np.linalg.norm(n, axis=1)
+    assert near.sum() == 2
+    tri[near] = tri[near][:, ::-1]
+    full, _, ad, _ = _trace_both(tri)
+    assert (~full).sum() > 0 and np.array_equal(ad, full)
+
+
 def test_one_ray_per_output_texel_would_miss_the_pole():
     # what the refinement buys: the pole's texels fall between the centres of 4×4 blocks
     full, _, ad, _ = _trace_both(_pole(0.03))
