@@ -1,16 +1,27 @@
-"""Visibility stage targets (issue 5), ratios measured in one run:
+"""Visibility stage targets (issues 5 and 35), ratios measured in one run:
 
 1. Ray throughput of the stage's per-vertex work vs raw embreex occlusion on the SAME rays
    (same process, interleaved repetitions, best of each): target ≥ 0.70. The gated ratio is
    the stage's tracing step (ray generation + Embree + visibility image); the ratio that also
    counts the SSDF conversion is printed beside it.
-2. Teapot on the tessellated floor (data_samples, ~20.6k vertices) through the real stage at
-   512² → 128² with 48 PCA terms on every core: total time (goal ≤ 300 s on 2 cores) and peak
-   memory of the process tree (sampled from /proc). The machine's cores are shared with other
-   work, so the goal is judged on total CPU time / cores (wall time and load are printed).
+2. `sampling: adaptive` against `full` on 48 check vertices (24 per object) of the teapot on
+   the tessellated floor, 512² → 128², same process, interleaved per vertex (best of two):
+   "equal SSDF error" means max |S_adaptive − S_full| over every texel of the check vertices
+   ≤ one trace-texel spacing (√(2π)/512 ≈ 0.0049 rad), the resolution limit of the full
+   result itself (its error against a closed-form SSDF, tests/visibility/test_trace.py).
+   The per-vertex CPU ratio (trace + SSDF, ~95 % of the `full` stage) is the time target:
+   ≤ 60/254 (issue 35: ~254 s on 2 cores with `full`, goal ≤ 60 s).
+3. The whole scene (~20.6k vertices) through the real stage with `sampling: adaptive`, 48 PCA
+   terms, on every core: its CPU time against full's, extrapolated from the same run (the
+   workers' CPU time divided by item 2's per-vertex ratio, plus the same main-process CPU:
+   loading, PCA, report), printed beside the absolute goal (≤ 60 s: CPU time / cores, since
+   the cores are shared with other work), wall time and load average. Not gated: full's
+   stage time is an extrapolation, not a measurement of this run, and the main process's
+   CPU time (loading, the PCA's matrix products, the report: the same for both samplings,
+   ~14 s on a quiet machine) swings 2–3× with the machine's load, moving this ratio by
+   ~0.03.
 
     .venv/bin/python -m benchmarks visibility
-    SGPIPE_BENCH_VIS_SAMPLING=adaptive ...   # the same with adaptive sampling
 """
 
 from __future__ import annotations
@@ -26,7 +37,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 RATIO_TARGET = 0.70
-TIME_GOAL_S = 300.0
+FULL_STAGE_S, GOAL_S = 254.0, 60.0          # issue 35: the `full` stage on 2 cores, the goal
+STAGE_RATIO_TARGET = GOAL_S / FULL_STAGE_S
+ERR_MAX_RAD = float(np.sqrt(2.0 * np.pi) / 512)   # one trace-texel spacing at 512²
 
 CONFIG = """
 name: bench_visibility
@@ -40,7 +53,7 @@ visibility:
   trace_resolution: 512
   resolution: 128
   pca_terms: 48
-  sampling: {sampling}
+  sampling: adaptive
 """
 
 
@@ -141,29 +154,46 @@ def throughput_ratio(geoms, n_per_object=24, reps=3):
     return best_raw / best_trace, best_raw / best_total, n_rays / best_raw / 1e6
 
 
-def adaptive_agreement(geoms, n_per_object=24):
-    """Adaptive vs full sampling on the same vertices: ray fraction, texel disagreement,
-    SSDF difference (radians)."""
+def adaptive_vs_full(geoms, n_per_object=24, reps=2):
+    """Adaptive vs full on the same vertices, interleaved per vertex (best of `reps` CPU
+    times each): per-vertex CPU ratio (trace + SSDF), ray fraction, trace texels that
+    differ, SSDF |difference| mean and max (radians), full's and adaptive's ms per vertex."""
     from sgpipe.visibility.ssdf import ssdf_from_visibility
-    from sgpipe.visibility.trace import build_scene, trace_visibility_counted
+    from sgpipe.visibility.trace import RayBuffers, build_scene, trace_visibility_counted
     scene = build_scene(np.concatenate([g.triangles for g in geoms]))
     allp = np.concatenate([g.positions for g in geoms])
     off = 1e-4 * float(np.linalg.norm(np.ptp(allp, axis=0)))
     rng = np.random.default_rng(1)
-    rays = mism = 0.0
+    verts = [(g, int(i)) for g in geoms
+             for i in rng.choice(len(g.positions), n_per_object, replace=False)]
+    buf = RayBuffers(512 * 512)
+    verts = [_frame(v) for v in verts]                 # (bitangents are computed on access)
+
+    def one(f, sampling):
+        t0 = time.process_time()
+        vis, m = trace_visibility_counted(scene, *f, 512, off, sampling=sampling, res=128,
+                                          buffers=buf)
+        s = ssdf_from_visibility(vis, 128)
+        return time.process_time() - t0, vis.copy(), m, s
+
+    one(verts[0], "full"), one(verts[0], "adaptive")          # warm-up: caches, JIT
+    t_full = t_ad = rays = mism = 0.0
     diffs = []
-    n = 0
-    for g in geoms:
-        for i in rng.choice(len(g.positions), n_per_object, replace=False):
-            f = _frame((g, int(i)))
-            full, _ = trace_visibility_counted(scene, *f, 512, off)
-            ad, m = trace_visibility_counted(scene, *f, 512, off, sampling="adaptive", res=128)
-            rays += m / 512 ** 2
-            mism += np.mean(full != ad)
-            diffs.append(np.abs(ssdf_from_visibility(full, 128) - ssdf_from_visibility(ad, 128)))
-            n += 1
+    for v in verts:
+        best_f = best_a = np.inf
+        for _ in range(reps):
+            tf, vf, _, sf = one(v, "full")
+            ta, va, m, sa = one(v, "adaptive")
+            best_f, best_a = min(best_f, tf), min(best_a, ta)
+        t_full += best_f
+        t_ad += best_a
+        rays += m / 512 ** 2
+        mism += np.mean(vf != va)
+        diffs.append(np.abs(sf.astype(np.float64) - sa))
     d = np.stack(diffs)
-    return rays / n, mism / n, float(d.mean()), float(d.max())
+    n = len(verts)
+    return (t_ad / t_full, rays / n, mism / n, float(d.mean()), float(d.max()),
+            1e3 * t_full / n, 1e3 * t_ad / n)
 
 
 def _frame(v):
@@ -177,24 +207,30 @@ def main() -> int:
     from sgpipe.io.mesh import load_scene
     from sgpipe.stages import visibility as stage
 
-    sampling = os.environ.get("SGPIPE_BENCH_VIS_SAMPLING", "full")
     teapot, floor = ROOT / "data_samples/teapot.obj", ROOT / "data_samples/floor.obj"
     geoms = load_scene(SceneSection(objects=[ObjectSpec(name="teapot", mesh=str(teapot)),
                                              ObjectSpec(name="floor", mesh=str(floor))]))
+    load0 = os.getloadavg()[0]
     r_trace, r_total, raw_mrays = throughput_ratio(geoms)
     print(f"ray throughput, stage tracing step / raw embreex (same rays): {r_trace:.3f} "
           f"(target >= {RATIO_TARGET}); including SSDF conversion: {r_total:.3f}; "
-          f"raw embreex {raw_mrays:.2f} Mray/s per core")
+          f"raw embreex {raw_mrays:.2f} Mray/s per core (load average {load0:.1f} -> "
+          f"{os.getloadavg()[0]:.1f})")
 
-    frac, mism, dmean, dmax = adaptive_agreement(geoms)
-    print(f"adaptive sampling vs full on 48 vertices: {100 * frac:.1f}% of the rays, "
-          f"{100 * mism:.3f}% of trace texels differ, SSDF |diff| mean {dmean:.5f} rad, "
-          f"max {dmax:.3f} rad")
+    load0 = os.getloadavg()[0]
+    ratio, frac, mism, dmean, dmax, ms_full, ms_ad = adaptive_vs_full(geoms)
+    print(f"adaptive vs full on 48 vertices (same run): CPU per vertex {ms_ad:.2f} / "
+          f"{ms_full:.2f} ms = {ratio:.3f} (target <= {STAGE_RATIO_TARGET:.3f}; trace + "
+          f"SSDF, x {FULL_STAGE_S:.0f} s = {ratio * FULL_STAGE_S:.0f} s); "
+          f"{100 * frac:.2f}% of the rays; "
+          f"{100 * mism:.4f}% of trace texels differ; SSDF |diff| mean {dmean:.2e} rad, max "
+          f"{dmax:.2e} rad (target <= {ERR_MAX_RAD:.4f}); load average {load0:.1f} -> "
+          f"{os.getloadavg()[0]:.1f}")
 
     with tempfile.TemporaryDirectory(prefix="bench_vis") as tmp:
         tmp = Path(tmp)
         cfg_path = tmp / "bench.yaml"
-        cfg_path.write_text(CONFIG.format(teapot=teapot, floor=floor, sampling=sampling))
+        cfg_path.write_text(CONFIG.format(teapot=teapot, floor=floor))
         cfg = load_config(cfg_path)
         load0 = os.getloadavg()[0]
         t0 = time.perf_counter()
@@ -207,13 +243,17 @@ def main() -> int:
         report = json.loads((vis_dir / "report.json").read_text())
     n_vert = sum(o["vertices"] for o in report["objects"].values())
     cores = len(os.sched_getaffinity(0))
-    cpu = timings["worker_cpu_s"] + timings["main_cpu_s"]
-    dedicated = cpu / cores
-    print(f"{n_vert} vertices, 512² -> 128², 48 terms, sampling={sampling}, {cores} cores: "
-          f"total CPU {cpu:.0f} s => {dedicated:.1f} s on {cores} dedicated cores "
-          f"(goal <= {TIME_GOAL_S:.0f} s); wall {wall:.1f} s on the shared machine "
-          f"(load average {load0:.1f} -> {load1:.1f}); "
-          f"tracing+SSDF phase {timings['trace_wall_s']:.1f} s "
+    worker, main_cpu = timings["worker_cpu_s"], timings["main_cpu_s"]
+    cpu = worker + main_cpu
+    full_cpu = worker / ratio + main_cpu
+    stage_ratio = cpu / full_cpu
+    print(f"{n_vert} vertices, 512² -> 128², 48 terms, sampling=adaptive, {cores} cores: "
+          f"CPU {cpu:.0f} s (workers {worker:.0f}, main {main_cpu:.0f}) vs full's "
+          f"extrapolated {full_cpu:.0f} s = {stage_ratio:.3f} (not gated; "
+          f"{GOAL_S:.0f}/{FULL_STAGE_S:.0f} = {STAGE_RATIO_TARGET:.3f}); "
+          f"{cpu / cores:.1f} s on {cores} dedicated cores (full: {full_cpu / cores:.0f} s; "
+          f"goal <= {GOAL_S:.0f} s); wall {wall:.1f} s on the shared machine (load average "
+          f"{load0:.1f} -> {load1:.1f}); tracing+SSDF phase {timings['trace_wall_s']:.1f} s "
           f"({timings['rays_per_s'] / 1e6:.2f} Mray/s all workers), PCA "
           + ", ".join(f"{k.split('.', 1)[1]} {v:.1f} s" for k, v in timings.items()
                       if k.startswith("pca_s.")))
@@ -233,8 +273,7 @@ def main() -> int:
             f"{e[k]['mean_abs']:.4f} / {e[k]['max_abs']:.4f}"
             for k in ("err_exact_raw", "err_exact_pca", "err_sigmoid_pca",
                       "err_sigmoid_published_pca")))
-    # other processes share the cores, so the time goal is judged on CPU time / cores
-    ok = r_trace >= RATIO_TARGET and dedicated <= TIME_GOAL_S
+    ok = r_trace >= RATIO_TARGET and dmax <= ERR_MAX_RAD and ratio <= STAGE_RATIO_TARGET
     return 0 if ok else 1
 
 

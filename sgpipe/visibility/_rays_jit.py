@@ -25,26 +25,3 @@ def fill_rays(local, idx, t, b, n, origin, out_o, out_d):
         out_o[k, 1] = oy
         out_o[k, 2] = oz
     return m
-
-
-@njit(cache=True)
-def refine_mask(coarse, margin):
-    """Blocks of the coarse visibility within `margin` blocks of a change (8-neighbourhood)."""
-    res = coarse.shape[0]
-    edge = np.zeros((res, res), np.bool_)
-    for i in range(res):
-        for j in range(res):
-            v = coarse[i, j]
-            for di in range(-1, 2):
-                for dj in range(-1, 2):
-                    a, c = i + di, j + dj
-                    if 0 <= a < res and 0 <= c < res and coarse[a, c] != v:
-                        edge[i, j] = True
-    out = np.zeros((res, res), np.bool_)
-    for i in range(res):
-        for j in range(res):
-            if edge[i, j]:
-                for a in range(max(0, i - margin), min(res, i + margin + 1)):
-                    for c in range(max(0, j - margin), min(res, j + margin + 1)):
-                        out[a, c] = True
-    return out

@@ -109,6 +109,38 @@ def nearest_boundary_angle(q, bound, block, bcen, bcos, bsin, pts, start, tcen, 
 
 
 @njit(cache=True)
+def point_caps(pts, start, tcen, tcos, tsin):
+    """Bounding caps of each tile's points (CSR `start`), where tighter than the tile's own
+    cap (tcen/tcos/tsin): centre = normalised mean, radius = largest angle, inflated like
+    the static caps. Empty tiles keep their cap (never visited)."""
+    n = start.shape[0] - 1
+    cen = tcen.copy()
+    cs = tcos.copy()
+    sn = tsin.copy()
+    for k in range(n):
+        if start[k + 1] <= start[k]:
+            continue
+        x = y = z = 0.0
+        for p in range(start[k], start[k + 1]):
+            x += pts[p, 0]
+            y += pts[p, 1]
+            z += pts[p, 2]
+        ln = np.sqrt(x * x + y * y + z * z)
+        if ln <= 1e-9:
+            continue
+        x, y, z = x / ln, y / ln, z / ln
+        lo = 1.0
+        for p in range(start[k], start[k + 1]):
+            lo = min(lo, x * pts[p, 0] + y * pts[p, 1] + z * pts[p, 2])
+        r = np.arccos(min(1.0, max(-1.0, lo))) * (1.0 + 1e-9) + 1e-12
+        if np.cos(r) > tcos[k]:
+            cen[k, 0], cen[k, 1], cen[k, 2] = x, y, z
+            cs[k] = np.cos(r)
+            sn[k] = np.sin(r)
+    return cen, cs, sn
+
+
+@njit(cache=True)
 def block_fraction(vis, res):
     """(T, T) bool → (R, R) float32 mean over k×k blocks (k = T/R)."""
     k = vis.shape[0] // res
@@ -125,28 +157,67 @@ def block_fraction(vis, res):
 
 
 @njit(cache=True)
-def boundary_by_tile(vis, mid_h, mid_v, tile):
+def block_fraction_words(words, res):
+    """block_fraction of a (T, T) 0/1 byte image viewed as (T, T/4) uint32 (k a multiple of
+    4): four texels are summed per word (bytes ≤ 1: byte 3 of x·0x01010101 is their sum)."""
+    t = words.shape[0]
+    k = t // res
+    kw = k // 4
+    out = np.empty((res, res), np.float32)
+    inv = 1.0 / (k * k)
+    for i in range(res):
+        for j in range(res):
+            n = 0
+            for a in range(i * k, i * k + k):
+                for b in range(j * kw, j * kw + kw):
+                    n += ((words[a, b] * 0x01010101) >> 24) & 0xFF
+            out[i, j] = n * inv
+    return out
+
+
+@njit(cache=True)
+def _uniform_h(words, r, w, nw):
+    """True when the 8 texels of word w of row r and the first texel of the next word are
+    all equal (bytes are 0/1, little-endian: texel 8w + j is byte j)."""
+    x = words[r, w]
+    if ((x ^ (x >> np.uint64(8))) & np.uint64(0x00FFFFFFFFFFFFFF)) != 0:
+        return False
+    if w + 1 < nw:
+        return ((x >> np.uint64(56)) ^ (words[r, w + 1] & np.uint64(0xFF))) == 0
+    return True
+
+
+@njit(cache=True)
+def boundary_by_tile(vis, words, mid_h, mid_v, tile):
     """Midpoints of 4-neighbour pairs of different visibility, bucketed by the trace tile of
-    their first texel: (points (M, 3) sorted by tile, CSR offsets (n_tiles + 1,))."""
+    their first texel: (points (M, 3) sorted by tile, CSR offsets (n_tiles + 1,)). `words`
+    is vis viewed as uint64 (t a multiple of 8): uniform runs of 8 texels are skipped."""
     t = vis.shape[0]
+    nw = words.shape[1]
     nt = (t + tile - 1) // tile
     cap = 2 * t * t
     rr = np.empty(cap, np.int32)
     cc = np.empty(cap, np.int32)
     m = 0
     for r in range(t):
-        for c in range(t - 1):
-            if vis[r, c] != vis[r, c + 1]:
-                rr[m] = r
-                cc[m] = c
-                m += 1
+        for w in range(nw):
+            if _uniform_h(words, r, w, nw):
+                continue
+            for c in range(8 * w, min(8 * w + 8, t - 1)):
+                if vis[r, c] != vis[r, c + 1]:
+                    rr[m] = r
+                    cc[m] = c
+                    m += 1
     mh = m
     for r in range(t - 1):
-        for c in range(t):
-            if vis[r, c] != vis[r + 1, c]:
-                rr[m] = r
-                cc[m] = c
-                m += 1
+        for w in range(nw):
+            if words[r, w] == words[r + 1, w]:
+                continue
+            for c in range(8 * w, min(8 * w + 8, t)):
+                if vis[r, c] != vis[r + 1, c]:
+                    rr[m] = r
+                    cc[m] = c
+                    m += 1
     start = np.zeros(nt * nt + 1, np.int64)
     for i in range(m):
         start[(rr[i] // tile) * nt + cc[i] // tile + 1] += 1

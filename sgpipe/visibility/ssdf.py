@@ -29,7 +29,10 @@ def downsample_visibility(vis: np.ndarray, res: int) -> np.ndarray:
     t = vis.shape[0]
     if vis.shape != (t, t) or t % res:
         raise ValueError(f"visibility image {vis.shape} is not a multiple of {res}")
-    return _ssdf_jit.block_fraction(np.ascontiguousarray(vis, dtype=np.bool_), res)
+    vis = np.ascontiguousarray(vis, dtype=np.bool_)
+    if (t // res) % 4 == 0:
+        return _ssdf_jit.block_fraction_words(vis.view(np.uint32), res)
+    return _ssdf_jit.block_fraction(vis, res)
 
 
 def _boundary_pairs(vis: np.ndarray):
@@ -49,7 +52,13 @@ def boundary_points(vis: np.ndarray) -> np.ndarray:
 def _boundary_by_tile(vis: np.ndarray, tile: int):
     """Boundary points sorted by the trace tile of their first texel, with CSR offsets."""
     mh, mv = neighbour_midpoints(vis.shape[0])
-    return _ssdf_jit.boundary_by_tile(vis, mh, mv, tile)
+    t = vis.shape[0]
+    if t % 8:                           # whole uint64 words per row (zero padding)
+        words = np.zeros((t, t + (-t) % 8), np.bool_)
+        words[:, :t] = vis
+    else:
+        words = np.ascontiguousarray(vis)
+    return _ssdf_jit.boundary_by_tile(vis, words.view(np.uint64), mh, mv, tile)
 
 
 def nearest_boundary_angle(vis: np.ndarray, res: int, bound: np.ndarray | None = None
@@ -61,7 +70,7 @@ def nearest_boundary_angle(vis: np.ndarray, res: int, bound: np.ndarray | None =
     pts, start = _boundary_by_tile(vis, tile)
     block = min(_QUERY_BLOCK, res)
     bcen, bcos, bsin = query_caps(res, block)
-    tcen, tcos, tsin = boundary_tile_caps(t, tile)
+    tcen, tcos, tsin = _ssdf_jit.point_caps(pts, start, *boundary_tile_caps(t, tile))
     if bound is None:
         bound = np.full((res, res), np.pi)
     return _ssdf_jit.nearest_boundary_angle(texel_dirs(res), np.asarray(bound, np.float64),

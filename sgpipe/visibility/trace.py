@@ -10,28 +10,48 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
 from sgpipe.visibility import _rays_jit
+from sgpipe.visibility import _silhouette_jit as _sil
 from sgpipe.visibility.hemigrid import texel_dirs_f32
+from sgpipe.visibility.silhouette import PAD, EdgeTable, edge_table, silhouette_mark
 from sgpipe.visibility.ssdf import ssdf_from_visibility
 
 _SCENE: dict = {"key": None, "scene": None}
 
 
-def build_scene(triangles: np.ndarray):
-    """An embreex scene of (F, 3, 3) triangles (float32 world corners)."""
-    from embreex import rtcore_scene as rtcs
-    from embreex.mesh_construction import TriangleMesh
-    tri = np.ascontiguousarray(triangles, dtype=np.float32).reshape(-1, 3, 3)
-    scene = rtcs.EmbreeScene()
-    TriangleMesh(scene, tri)
-    return scene
+class TracedScene:
+    """An embreex scene with the float32 triangles it holds (their edges guide the adaptive
+    sampler); `run` is embreex's."""
+
+    def __init__(self, triangles: np.ndarray):
+        from embreex import rtcore_scene as rtcs
+        from embreex.mesh_construction import TriangleMesh
+        self.triangles = np.ascontiguousarray(triangles, dtype=np.float32).reshape(-1, 3, 3)
+        self.embree = rtcs.EmbreeScene()
+        TriangleMesh(self.embree, self.triangles)
+        self._edges = None
+
+    def run(self, *args, **kwargs):
+        """embreex's EmbreeScene.run (origins, directions, query=...)."""
+        return self.embree.run(*args, **kwargs)
+
+    @property
+    def edges(self) -> EdgeTable:
+        """The welded edge table of the triangles (built on first use)."""
+        if self._edges is None:
+            self._edges = edge_table(self.triangles)
+        return self._edges
 
 
-def scene_from_file(path: str):
+def build_scene(triangles: np.ndarray) -> TracedScene:
+    """A traced scene of (F, 3, 3) triangles (float32 world corners)."""
+    return TracedScene(triangles)
+
+
+def scene_from_file(path: str) -> TracedScene:
     """The scene of a triangle .npy file, built once per process and cached."""
     st = os.stat(path)
     key = (path, st.st_size, st.st_mtime_ns)
@@ -58,8 +78,9 @@ def hemisphere_rays(position, normal, tangent, bitangent, trace_res: int, offset
     (origins, dirs) float32 (m, 3). Origins sit `offset` along the normal (self-intersection
     guard: Embree's tnear is 0 in embreex)."""
     local = texel_dirs_f32(trace_res)
-    if buffers is None or len(buffers.o) < len(local):
-        buffers = RayBuffers(len(local))
+    need = len(local) if len(idx) == 0 else len(idx)
+    if buffers is None or len(buffers.o) < need:
+        buffers = RayBuffers(need)
     origin = np.asarray(position, np.float64) + offset * np.asarray(normal, np.float64)
     m = _rays_jit.fill_rays(local, idx, np.asarray(tangent, np.float64),
                             np.asarray(bitangent, np.float64), np.asarray(normal, np.float64),
@@ -72,20 +93,40 @@ def occluded(scene, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     return scene.run(origins, dirs, query="OCCLUDED") != -1
 
 
-@lru_cache(maxsize=4)
-def _coarse_index(trace_res: int, res: int) -> np.ndarray:
-    """Flat trace-texel index of one ray near the centre of every k×k block (k = T/R)."""
-    k = trace_res // res
-    c = np.arange(res) * k + k // 2
-    return (c[:, None] * trace_res + c[None, :]).ravel().astype(np.int64)
+def _visible(scene, origins, dirs) -> np.ndarray:
+    """Bool per ray: nothing hit (embreex's OCCLUDED query returns −1 for a miss)."""
+    return scene.run(origins, dirs, query="OCCLUDED") == -1
 
 
-def _block_texels(trace_res: int, res: int, mask: np.ndarray) -> np.ndarray:
-    k = trace_res // res
-    bi, bj = np.nonzero(mask)
-    off = (np.arange(k)[:, None] * trace_res + np.arange(k)[None, :]).ravel()
-    base = (bi * k) * trace_res + bj * k
-    return (base[:, None] + off[None, :]).ravel().astype(np.int64)
+def _trace_adaptive(scene, frame, margin: int):
+    """Silhouette-guided trace (see silhouette.py): every texel within the band of a
+    projected contour or open edge, three probes per region away from them; a region whose
+    probes disagree is traced whole. Returns ((T, T) visibility, rays traced)."""
+    position, normal, tangent, bitangent, trace_res, offset, buffers = frame
+    origin = (np.asarray(position, np.float64) + offset * np.asarray(normal, np.float64)
+              ).astype(np.float32).astype(np.float64)      # where the float32 rays start
+    mark = silhouette_mark(scene.edges, origin, tangent, bitangent, normal, trace_res,
+                           PAD + (int(margin) - 1))
+    if mark is None:
+        o, d = hemisphere_rays(*frame)
+        return _visible(scene, o, d).reshape(trace_res, trace_res), len(o)
+    rr, r0, r1, region, m = _sil.unmarked_regions(mark)
+    probes = _sil.probe_texels(rr, r0, r1, region, m, trace_res)
+    marked = np.flatnonzero(mark.ravel())
+    o, d = hemisphere_rays(*frame, idx=np.concatenate([marked, probes.ravel()]))
+    hit = _visible(scene, o, d)
+    rays = len(o)
+    vis = np.empty((trace_res, trace_res), np.bool_)
+    vis.ravel()[marked] = hit[:len(marked)]
+    pv = hit[len(marked):].reshape(m, 3)
+    _sil.fill_regions(vis, rr, r0, r1, region, pv[:, 0].copy())
+    split = pv.any(axis=1) & ~pv.all(axis=1)
+    if split.any():                   # the bound failed (a leaking shared edge): trace them
+        idx = _sil.region_texels(rr, r0, r1, region, split, trace_res)
+        o, d = hemisphere_rays(*frame, idx=idx)
+        vis.ravel()[idx] = _visible(scene, o, d)
+        rays += len(o)
+    return vis, rays
 
 
 def trace_visibility(scene, position, normal, tangent, bitangent, trace_res: int,
@@ -101,29 +142,22 @@ def trace_visibility(scene, position, normal, tangent, bitangent, trace_res: int
 def trace_visibility_counted(scene, position, normal, tangent, bitangent, trace_res: int,
                              offset: float, *, sampling: str = "full", res: int | None = None,
                              margin: int = 1, buffers: RayBuffers | None = None):
-    """((T, T) bool visibility, number of rays traced) of one vertex's upper hemisphere (True = unoccluded).
+    """((T, T) bool visibility, number of rays traced) of one vertex's upper hemisphere
+    (True = unoccluded).
 
-    sampling="full" traces every trace texel (Wang09 §5.2). "adaptive" traces one ray per
-    k×k block of the R×R output grid, then every ray of the blocks within `margin` blocks of
-    a change; other blocks take their coarse value (misses occluders smaller than a block)."""
+    sampling="full" traces every trace texel (Wang09 §5.2). "adaptive" traces the texels
+    within PAD + margin − 1 texels of a projected contour or open edge of the scene and three
+    rays per connected region of the rest (silhouette.py): the same image wherever Embree's
+    edge tests are watertight. `res` is accepted for the caller's convenience and unused."""
     frame = (position, normal, tangent, bitangent, trace_res, offset, buffers)
     if sampling == "full":
         o, d = hemisphere_rays(*frame)
-        return (scene.run(o, d, query="OCCLUDED") == -1).reshape(trace_res, trace_res), len(o)
-    if sampling != "adaptive" or res is None:
-        raise ValueError("sampling must be 'full' or 'adaptive' (with res)")
-    k = trace_res // res
-    o, d = hemisphere_rays(*frame, idx=_coarse_index(trace_res, res))
-    coarse = (scene.run(o, d, query="OCCLUDED") == -1).reshape(res, res)
-    vis = np.repeat(np.repeat(coarse, k, axis=0), k, axis=1)
-    rays = len(o)
-    mask = _rays_jit.refine_mask(coarse, int(margin))
-    if mask.any():
-        idx = _block_texels(trace_res, res, mask)
-        o, d = hemisphere_rays(*frame, idx=idx)
-        vis.ravel()[idx] = scene.run(o, d, query="OCCLUDED") == -1
-        rays += len(o)
-    return vis, rays
+        return _visible(scene, o, d).reshape(trace_res, trace_res), len(o)
+    if sampling != "adaptive":
+        raise ValueError("sampling must be 'full' or 'adaptive'")
+    if not hasattr(scene, "edges"):
+        raise TypeError("adaptive sampling needs a scene from build_scene (its edges)")
+    return _trace_adaptive(scene, frame, margin)
 
 
 @dataclass
@@ -189,5 +223,6 @@ def trace_chunk(task: TraceTask) -> TraceResult:
                        time.process_time() - c0)
 
 
-__all__ = ["build_scene", "scene_from_file", "hemisphere_rays", "occluded", "trace_visibility",
-           "trace_visibility_counted", "RayBuffers", "TraceTask", "TraceResult", "trace_chunk"]
+__all__ = ["TracedScene", "build_scene", "scene_from_file", "hemisphere_rays", "occluded",
+           "trace_visibility", "trace_visibility_counted", "RayBuffers", "TraceTask",
+           "TraceResult", "trace_chunk"]

@@ -114,3 +114,24 @@ def test_resolution_must_divide_trace_resolution(tmp_path):
     p.write_text("visibility: {trace_resolution: 20, resolution: 8}\n")
     with pytest.raises(BadInput, match="divide"):
         load_config(p)
+
+
+def test_adaptive_sampling_writes_the_same_artifacts_as_full(tmp_path):
+    out_full, out_ad = tmp_path / "full", tmp_path / "adaptive"
+    stage.run(make(tmp_path, terms=3), out_full)
+    cfg = make(tmp_path, terms=3)
+    cfg.visibility.sampling = "adaptive"
+    run = stage.run(cfg, out_ad)
+    m1 = json.loads((out_full / "visibility/manifest.json").read_text())["outputs"]
+    m2 = json.loads((out_ad / "visibility/manifest.json").read_text())["outputs"]
+    same = [n for n in m1 if n.endswith((".npz", ".png"))]
+    assert any(n.endswith("ssdf_pca.npz") for n in same) and len(same) > 10
+    for name in same:
+        assert m1[name] == m2[name], name
+    for name in (n for n in m1 if n.endswith(".exr")):   # their headers hash the parameters
+        np.testing.assert_array_equal(read_exr(out_full / "visibility" / name),
+                                      read_exr(out_ad / "visibility" / name))
+    rays = [json.loads((o / "visibility/manifest.json").read_text())["report"]["rays"]
+            for o in (out_full, out_ad)]
+    assert rays[0] == 48 * 32 * 32 and rays[1] < 0.2 * rays[0], rays
+    assert run.report["rays"] == rays[1]

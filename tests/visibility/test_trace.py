@@ -99,11 +99,3 @@ def test_adaptive_sampling_equals_full_for_extended_occluders(scenes, frame, nam
     adaptive, n_adaptive = trace_visibility_counted(*args, sampling="adaptive", res=RES)
     assert np.array_equal(full, adaptive)
     assert n_full == TRACE ** 2 and n_adaptive < 0.5 * n_full
-
-
-def test_adaptive_refines_every_block_next_to_a_change():
-    from sgpipe.visibility._rays_jit import refine_mask
-    c = np.ones((8, 8), bool)
-    c[3, 4] = False
-    m = refine_mask(c, 1)
-    assert m[1:6, 2:7].all() and m.sum() == 25
