@@ -34,15 +34,20 @@
             if (n0s[k].x <= 0.0f || ln <= 0.0f) continue;
             float wt = (1.0f - f) * (n0s[k].x / (float)ntap);
             float3 ckd = kd, cks = ks;
-            if (feat && !featg) {           /* glTF features: the pixel's record at level 0 */
+            float sk = s;                   /* the tap's roughness (a glTF material's own) */
+            if (feat) {
                 float4 c0 = n0f[2 * k] / n0s[k].x, c1 = n0f[2 * k + 1] / n0s[k].x;
-                ckd = c0.xyz;               /* the textures' values; × kd, ks below */
-                cks = (float3)(c0.w, c1.x, c1.y);
+                ckd = c0.xyz;               /* the textures' values (× kd, ks below; glTF's */
+                cks = (float3)(c0.w, c1.x, c1.y);                   /* kd, F0 themselves) */
+                if (featg && reset_) {
+                    float rk = clamp(exp(c1.z), NM_GLTF_MIN_R, 1.0f);
+                    sk = rk * rk;
+                }
             }
-            if (nm_merge_tap(ax, lp, lkd, lks, 0, nlob, nk / ln, wt,
-                             (float4)(1.0f, s, bnorm * (s + 1.0f), s), ckd, cks)) continue;
+            float4 tpar = (float4)(1.0f, sk, bnorm * (sk + 1.0f), sk);
+            if (nm_merge_tap(ax, lp, lkd, lks, 0, nlob, nk / ln, wt, tpar, ckd, cks)) continue;
             ax[nlob] = (float4)(nk / ln, 1.0f);
-            lp[nlob] = (float4)(wt, s, bnorm * (s + 1.0f), s);
+            lp[nlob] = (float4)(wt, tpar.yzw);
             lkd[nlob] = ckd; lks[nlob] = cks;
             ++nlob;
         }

@@ -16,6 +16,10 @@
     int model = (int)bp[2];
     if (sv_ && model == NM_GLTF) s = m[MAT_AV];   /* the pixel's filtered roughness */
     if (model == NM_GLTF) ks = mat3(m, MAT_F0);   /* glTF lobes carry F0 as ks (nm_fres) */
+    /* a textured glTF material: its factor record, and whether the pixel's record can be re-set
+     * to a lobe's own roughness (its roughness grid of NDF lobes; nm_terms_body.h) */
+    __global const float *mf_ = mats + OBJ_MAT(ob) * MAT_STRIDE;
+    int reset_ = model == NM_GLTF && sv_ && mf_[MAT_SVLOB] >= 0.0f;
     int env_on = bp[13] > 0.0f && !(flags & FLAG_NO_ENV_SPECULAR);
     float3 o = normalize(to_world(lift(to_local(gview[gid].xyz, T, B, N), 0.01f), T, B, N));
 
@@ -215,7 +219,14 @@
                 /* the tap's colour: the colour textures themselves over the tap's share of
                  * the footprint, as the reference reads them beside the bilinear normal (any
                  * texture resolution; the features hold the map's grid) */
-                if (feat && !featg) {
+                if (featg) {    /* a glTF material's kd, F0, ln r over the tap's share */
+                    float3 tkd, tf0;
+                    float tr = gltf_filtered_params(mf_, texels, texinfo, texaff, uvk, tduv,
+                                                    &tkd, &tf0);
+                    n0f[2 * (k % NM_MAX_L0)] += (float4)(tkd, tf0.x);
+                    n0f[2 * (k % NM_MAX_L0) + 1] += (float4)(tf0.y, tf0.z,
+                        log(fmax(clamp(tr, 0.0f, 1.0f), NM_GLTF_MIN_R)), 0.0f);
+                } else if (feat) {
                     float4 ck = kdt_ >= 0 ? tex_filtered(texels, texinfo[kdt_], texaff, kdt_,
                                                          uvk, tduv) : (float4)(1.0f);
                     float4 cs = kst_ >= 0 ? tex_filtered(texels, texinfo[kst_], texaff, kst_,

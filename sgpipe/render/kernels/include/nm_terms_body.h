@@ -96,12 +96,10 @@
 #else
     if (env_on) {
         /* a textured glTF material's pixel record (gltf_pixel_record) re-set per lobe */
-        __global const float *mf_ = mats + OBJ_MAT(ob) * MAT_STRIDE;
         __global float *rw_ = pxmat + gid * MAT_STRIDE;
-        int reset = model == NM_GLTF && sv_ && mf_[MAT_SVLOB] >= 0.0f;
         for (int j = 0; j < nlob; ++j) {
             int bare = (model == NM_GGX || model == NM_GLTF) && ax[j].w == 1.0f && lp[j].w == s;
-            if (bare || reset) {
+            if (bare || reset_) {
                 /* the bare GGX material about a normal (level 0's taps, the plain MIP's
                  * lobe): the `sg` method's specular at that normal — the material's NDF
                  * lobes, each warped to three sub-lobes, energy-scaled — which holds GGX's
@@ -109,10 +107,10 @@
                  * A filtered lobe of a textured glTF material likewise, the record set to the
                  * lobe's F0 and to the GGX whose peak is its D's (eq 21's a = lp.w), then
                  * back to the pixel's */
-                if (reset) {
+                if (sv_ && model == NM_GLTF) {
                     rw_[MAT_F0] = lks[j].x; rw_[MAT_F0 + 1] = lks[j].y;
                     rw_[MAT_F0 + 2] = lks[j].z;
-                    gltf_record_alpha(mf_, rw_, lp[j].w, lp[j].w);
+                    if (reset_) gltf_record_alpha(mf_, rw_, lp[j].w, lp[j].w);
                 }
                 float4 q = quat_from_z(normalize(to_local(ax[j].xyz, T, B, N)));
                 float4 qi = quat_conj(q);
@@ -127,9 +125,9 @@
                                                    env_mean, pyr_raw, raw_n, pyr_pts,
                                                    NM_EXACT_POINTS ? 0 : n_pts, env_scale,
                                                    lights, 0, es);
-                if (reset) {
+                if (sv_ && model == NM_GLTF) {
                     rw_[MAT_F0] = ks.x; rw_[MAT_F0 + 1] = ks.y; rw_[MAT_F0 + 2] = ks.z;
-                    gltf_record_alpha(mf_, rw_, s, s);
+                    if (reset_) gltf_record_alpha(mf_, rw_, s, s);
                 }
                 continue;
             }

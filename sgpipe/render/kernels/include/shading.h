@@ -193,70 +193,7 @@ typedef struct {
     float4 q, qi;
 } Pixel;
 
-/* The roughness part of a textured gltf_pbr record r (gltf_pixel_record) from the material's
- * factor record m: α_t = au, α = av, g_scale and the NDF lobes interpolated from the roughness
- * grid at α (LOBE0, NLOBES, SVFRAC). The normal-map kernels re-set it per filtered lobe. */
-inline void gltf_record_alpha(__global const float *m, __global float *r, float au, float av) {
-    r[MAT_AU] = au; r[MAT_AV] = av;
-    r[MAT_GSCALE] = 1.0f / (4.0f * au * av);
-    r[MAT_SVFRAC] = 0.0f;
-    if (m[MAT_SVLOB] >= 0.0f) {
-        int ne = (int)m[MAT_SVN];
-        float g = (log(av) - log(m[MAT_SVA0])) / (log(m[MAT_SVA1]) - log(m[MAT_SVA0]))
-                  * (float)(ne - 1);
-        g = clamp(g, 0.0f, (float)(ne - 1));
-        int i0 = min((int)floor(g), ne - 2);
-        int step = (int)m[MAT_SVSTEP];
-        r[MAT_LOBE0] = m[MAT_SVLOB] + (float)(i0 * step);
-        r[MAT_NLOBES] = (float)(step - 1);
-        r[MAT_SVFRAC] = g - (float)i0;
-    }
-}
-
-/* A textured gltf_pbr material's record for one pixel (Wang09 §4.1: the model's parameters
- * textured, the reflectance built per pixel), written into the pixel's scratch record r:
- * kd = (1 − m) c, Schlick F0 = lerp(0.04, c, m) and roughness filtered over the footprint (ln r) —
- * read as such (MAT_SVLIN: textures of these per texel, render.setup.linear_parameters) or
- * formed from the filtered base colour c and metallic m (factor × texel) — then what the
- * uniform material's packer derives (brdf.models.gltf_pbr): α = max(roughness, 0.06)², α_t = lerp(α, 1, s²),
- * g_scale = 1/(4 α_t α); the NDF lobes interpolated from the roughness grid (ndf_sg_rough.npz:
- * LOBE0 = the lower entry, SVFRAC the upper one's weight; ndf_lobe) and SV = 1: the exact D
- * analytic at the pixel's α (ndf_exact) instead of the material's table. */
-inline void gltf_pixel_record(__global const float *m, __global float *r,
-                              __global const float4 *texels, __global const int4 *texinfo,
-                              __global const float4 *texaff, float2 uv, float4 duv,
-                              float aniso_scale) {
-    for (int k = 0; k < MAT_STRIDE; ++k) r[k] = m[k];
-    float3 c = mat3(m, MAT_BASE);
-    float metal = m[MAT_METAL], rough = m[MAT_ROUGH];
-    int bt = (int)m[MAT_BCTEX], mt = (int)m[MAT_MRTEX];
-    float3 kd, f0;
-    if (m[MAT_SVLIN] > 0.5f) {        /* (kd, ln r) and (F0, 0) per texel, factors applied */
-        float4 a = tex_filtered(texels, texinfo[bt], texaff, bt, uv, duv);
-        kd = a.xyz;
-        rough = exp(a.w);              /* the footprint's geometric mean roughness */
-        f0 = tex_filtered(texels, texinfo[mt], texaff, mt, uv, duv).xyz;
-    } else {
-        if (bt >= 0) c *= tex_filtered(texels, texinfo[bt], texaff, bt, uv, duv).xyz;
-        if (mt >= 0) {
-            float4 t = tex_filtered(texels, texinfo[mt], texaff, mt, uv, duv);
-            rough *= t.y;
-            metal *= t.z;
-        }
-        metal = clamp(metal, 0.0f, 1.0f);
-        kd = (1.0f - metal) * c;
-        f0 = mix((float3)(0.04f), c, metal);
-    }
-    float rr = fmax(clamp(rough, 0.0f, 1.0f), 0.06f);
-    float av = rr * rr, s = clamp(m[MAT_ANISO] * aniso_scale, 0.0f, 1.0f);
-    float au = av + (1.0f - av) * s * s;
-    r[MAT_KD] = kd.x; r[MAT_KD + 1] = kd.y; r[MAT_KD + 2] = kd.z;
-    r[MAT_F0] = f0.x; r[MAT_F0 + 1] = f0.y; r[MAT_F0 + 2] = f0.z;
-    r[MAT_KDTEX] = -1.0f; r[MAT_KSTEX] = -1.0f;
-    r[MAT_DIFFUSE] = 3.0f;     /* glTF's (the factors' record says none where metallic = 1) */
-    r[MAT_SV] = 1.0f;
-    gltf_record_alpha(m, r, au, av);
-}
+#include "gltf_record.h"   /* gltf_pixel_record, gltf_filtered_params */
 
 inline Pixel pixel_init(int gid, __global const float4 *gnrm, __global const float4 *gtan,
                         __global const float4 *gview, __global const float4 *gpos,
