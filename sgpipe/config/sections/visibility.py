@@ -22,7 +22,7 @@ class VisibilitySection:
         "to the projected contour and open edges of the scene, the only places visibility "
         "can change, and fills the regions between them from three probe rays each: the "
         "same image from ~2–3 % of the rays (differs only where Embree leaks through a "
-        "shared edge).", "full")
+        "shared edge).", "adaptive")
     adaptive_margin: int = doc("Adaptive sampling: the band traced around every projected "
                                "contour or open edge reaches 0.5 + this many trace texels "
                                "to each side (1 is what the bound needs; more only costs "
