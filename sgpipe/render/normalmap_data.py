@@ -216,12 +216,15 @@ class NormalMapData:
                     nm_env_sh8=opencl.to_device(ctx, np.zeros((1, 4), np.float32)))
 
 
-def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
+def load_normalmap_data(cfg, out_dir, specs, textured: list[bool] | None = None
+                        ) -> NormalMapData:
     """The pyramids of the scene's normal-mapped objects from `<out>/normalmap/index.json`, each
     object's material (its `specs[k]`: Lambert, Blinn–Phong, Beckmann, Cook–Torrance, GGX or
     glTF metal-rough; other models are refused: eq 20 / 21 are the closed forms these kernels
     implement) and the
-    environment (SH for nm_sh's diffuse term; specular through Γ_L when there is one)."""
+    environment (SH for nm_sh's diffuse term; specular through Γ_L when there is one).
+    `textured`: per object, whether its material is a textured glTF one (ρ̂_l from the table
+    over α, `with_rho_table`)."""
     lobes = [material_lobe(spec) for spec in specs]
     nm_dir = Path(out_dir) / "normalmap"
     index = nm_dir / "index.json"
@@ -268,11 +271,7 @@ def load_normalmap_data(cfg, out_dir, specs) -> NormalMapData:
     data = NormalMapData.pack(pyramids, [prm for _, prm in lobes], taps,
                               [BRDF_MODELS[mdl] for mdl, _ in lobes], rho,
                               footprint=cfg.render.normalmap_footprint)
-    from sgpipe.render.setup import gltf_textures
-    assets: dict = {}
-    textured = [spec.model == "gltf_pbr" and gltf_textures(cfg, o, assets) is not None
-                for spec, o in zip(specs, objs)]
-    data = data.with_rho_table(textured)
+    data = data.with_rho_table(textured or [])
     light_sh = None
     if cfg.envmap is not None:
         from sgpipe.artifacts.envmap import read_light_sh

@@ -137,7 +137,11 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
         attach_transport(renderer, cfg, out_dir, [v for v, _ in vis])
     if any(x.needs_normalmap for x in methods):
         from sgpipe.render.normalmap_data import attach_normalmaps, load_normalmap_data
-        attach_normalmaps(renderer, load_normalmap_data(cfg, out_dir, specs))
+        # per object: is its material a textured glTF one (the kernels' per-pixel record)?
+        textured = [(g := mats[names.index(o.material)].gltf) is not None
+                    and (g.base_texture >= 0 or g.metal_rough_texture >= 0)
+                    for o in cfg.scene.objects]
+        attach_normalmaps(renderer, load_normalmap_data(cfg, out_dir, specs, textured))
     return SceneBundle(renderer, objects, [p for _, p in vis], environment_latlong(cfg))
 
 
