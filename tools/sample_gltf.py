@@ -54,6 +54,8 @@ def write_textured_ball(path, sphere, normal_rgb8: np.ndarray) -> dict:
     """Write the asset; `sphere` = (positions, faces, normals, uvs) of sample_meshes.uv_sphere
     (uvs in OBJ's convention, flipped to glTF's here); returns its facts."""
     import pygltflib as g
+
+    from sgpipe.io.gltf_buffer import GltfBuffer
     v, f, n, uv = sphere
     pos = (np.round(np.asarray(v, np.float64), 6) + 0.0).astype(np.float32)
     nrm = (np.round(np.asarray(n, np.float64), 6) + 0.0).astype(np.float32)
@@ -61,47 +63,29 @@ def write_textured_ball(path, sphere, normal_rgb8: np.ndarray) -> dict:
                    -1)
     tex = (np.round(tex, 6) + 0.0).astype(np.float32)
     idx = np.asarray(f, np.uint32).ravel()
-    blob, views, accessors = bytearray(), [], []
-
-    def view(data: bytes, target=None) -> int:
-        blob.extend(b"\0" * (-len(blob) % 4))
-        views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data),
-                                  target=target))
-        blob.extend(data)
-        return len(views) - 1
-
-    def acc(arr, comp, typ, target, bounds=False) -> int:
-        a = g.Accessor(bufferView=view(np.ascontiguousarray(arr).tobytes(), target),
-                       componentType=comp, count=len(arr), type=typ)
-        if bounds:
-            a.min = [float(x) for x in arr.min(0)]
-            a.max = [float(x) for x in arr.max(0)]
-        accessors.append(a)
-        return len(accessors) - 1
-
-    attrs = g.Attributes(POSITION=acc(pos, g.FLOAT, g.VEC3, g.ARRAY_BUFFER, True),
-                         NORMAL=acc(nrm, g.FLOAT, g.VEC3, g.ARRAY_BUFFER),
-                         TEXCOORD_0=acc(tex, g.FLOAT, g.VEC2, g.ARRAY_BUFFER))
-    ind = acc(idx, g.UNSIGNED_INT, g.SCALAR, g.ELEMENT_ARRAY_BUFFER)
-    images = [g.Image(bufferView=view(_png(img)), mimeType="image/png")
-              for img in (base_colour(), metal_rough(), normal_rgb8)]
     doc = g.GLTF2(
         asset=g.Asset(version="2.0", generator="sgpipe tools/sample_gltf.py"),
         scene=0, scenes=[g.Scene(nodes=[0])], nodes=[g.Node(name="ball", mesh=0)],
-        meshes=[g.Mesh(name="ball", primitives=[g.Primitive(attributes=attrs, indices=ind,
-                                                            material=0)])],
-        materials=[g.Material(
-            name="painted_metal",
-            pbrMetallicRoughness=g.PbrMetallicRoughness(
-                baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=1.0, roughnessFactor=1.0,
-                baseColorTexture=g.TextureInfo(index=0),
-                metallicRoughnessTexture=g.TextureInfo(index=1)),
-            normalTexture=g.NormalMaterialTexture(index=2))],
         samplers=[g.Sampler(wrapS=g.REPEAT, wrapT=g.CLAMP_TO_EDGE)],
         textures=[g.Texture(source=k, sampler=0) for k in range(3)],
-        images=images, accessors=accessors, bufferViews=views,
-        buffers=[g.Buffer(byteLength=len(blob))], extensionsUsed=[], extensionsRequired=[])
-    doc.set_binary_blob(bytes(blob))
+        extensionsUsed=[], extensionsRequired=[])
+    buf = GltfBuffer(doc)
+    attrs = g.Attributes(POSITION=buf.accessor(pos, g.VEC3, g.ARRAY_BUFFER, minmax=True),
+                         NORMAL=buf.accessor(nrm, g.VEC3, g.ARRAY_BUFFER),
+                         TEXCOORD_0=buf.accessor(tex, g.VEC2, g.ARRAY_BUFFER))
+    ind = buf.accessor(idx, g.SCALAR, g.ELEMENT_ARRAY_BUFFER)
+    doc.images = [g.Image(bufferView=buf.view(_png(img)), mimeType="image/png")
+                  for img in (base_colour(), metal_rough(), normal_rgb8)]
+    doc.meshes = [g.Mesh(name="ball", primitives=[g.Primitive(attributes=attrs, indices=ind,
+                                                                material=0)])]
+    doc.materials = [g.Material(
+        name="painted_metal",
+        pbrMetallicRoughness=g.PbrMetallicRoughness(
+            baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=1.0, roughnessFactor=1.0,
+            baseColorTexture=g.TextureInfo(index=0),
+            metallicRoughnessTexture=g.TextureInfo(index=1)),
+        normalTexture=g.NormalMaterialTexture(index=2))]
+    buf.embed()
     data = b"".join(doc.save_to_bytes())
     path.write_bytes(data)
     json.loads(doc.to_json())                        # well-formed

@@ -52,6 +52,7 @@ def write_rough_metal_ball(path: Path) -> None:
     import pygltflib as g
     from PIL import Image
 
+    from sgpipe.io.gltf_buffer import GltfBuffer
     from sgpipe.io.mesh import _read_mesh_file
     root = Path(__file__).resolve().parents[1]
     pos, faces, nrm, uv = _read_mesh_file(root / "data_samples" / "sphere.obj", None)
@@ -60,23 +61,6 @@ def write_rough_metal_ball(path: Path) -> None:
               np.asarray(tex, np.float32)]
     png = io.BytesIO()
     Image.fromarray(rough_metal_texture()).save(png, "PNG", optimize=False, compress_level=9)
-    blob, views = bytearray(), []
-
-    def view(data: bytes, target=None) -> int:
-        blob.extend(b"\0" * (-len(blob) % 4))
-        views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data),
-                                  target=target))
-        blob.extend(data)
-        return len(views) - 1
-
-    acc = [g.Accessor(bufferView=view(a.tobytes(), g.ARRAY_BUFFER), componentType=g.FLOAT,
-                      count=len(a), type=t) for a, t in zip(arrays, (g.VEC3, g.VEC3, g.VEC2))]
-    acc[0].min = [float(x) for x in arrays[0].min(0)]
-    acc[0].max = [float(x) for x in arrays[0].max(0)]
-    idx = np.asarray(faces, np.uint32).ravel()
-    acc.append(g.Accessor(bufferView=view(idx.tobytes(), g.ELEMENT_ARRAY_BUFFER),
-                          componentType=g.UNSIGNED_INT, count=len(idx), type=g.SCALAR))
-    image = g.Image(bufferView=view(png.getvalue()), mimeType="image/png")
     doc = g.GLTF2(
         asset=g.Asset(version="2.0", generator="sgpipe validation/gltf.py"),
         scene=0, scenes=[g.Scene(nodes=[0])], nodes=[g.Node(name="ball", mesh=0)],
@@ -87,9 +71,13 @@ def write_rough_metal_ball(path: Path) -> None:
             baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=1.0, roughnessFactor=1.0,
             metallicRoughnessTexture=g.TextureInfo(index=0)))],
         samplers=[g.Sampler(wrapS=g.REPEAT, wrapT=g.REPEAT)],
-        textures=[g.Texture(source=0, sampler=0)], images=[image], accessors=acc,
-        bufferViews=views, buffers=[g.Buffer(byteLength=len(blob))])
-    doc.set_binary_blob(bytes(blob))
+        textures=[g.Texture(source=0, sampler=0)])
+    buf = GltfBuffer(doc)
+    for k, (a, kind) in enumerate(zip(arrays, (g.VEC3, g.VEC3, g.VEC2))):   # accessors 0–2
+        buf.accessor(a, kind, g.ARRAY_BUFFER, minmax=k == 0)
+    buf.accessor(np.asarray(faces, np.uint32).ravel(), g.SCALAR, g.ELEMENT_ARRAY_BUFFER)
+    doc.images = [g.Image(bufferView=buf.view(png.getvalue()), mimeType="image/png")]
+    buf.embed()
     Path(path).write_bytes(b"".join(doc.save_to_bytes()))
 
 

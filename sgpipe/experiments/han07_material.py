@@ -60,47 +60,30 @@ def plane_glb(path: Path, rep: float, images: tuple) -> Path:
     textures repeated `rep` times across it) as a .glb whose one material carries the normal,
     base-colour and metallic-roughness textures `images` (factors 1, REPEAT samplers)."""
     import pygltflib as g
+
+    from sgpipe.io.gltf_buffer import GltfBuffer
     p = np.array([[-3, 0, 3], [3, 0, 3], [3, 0, -3], [-3, 0, -3]], np.float32)
     nrm = np.tile(np.float32([0, 1, 0]), (4, 1))
     uv = np.array([[0, 0], [rep, 0], [rep, rep], [0, rep]], np.float32)
     st = np.stack([uv[:, 0], 1.0 - uv[:, 1]], -1).astype(np.float32)     # glTF: t = 1 − v
     idx = np.array([0, 1, 2, 0, 2, 3], np.uint16)
-    blob, views, accessors = bytearray(), [], []
-
-    def view(data: bytes, target=None) -> int:
-        blob.extend(b"\0" * (-len(blob) % 4))
-        views.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data),
-                                  target=target))
-        blob.extend(data)
-        return len(views) - 1
-
-    def acc(arr, comp, typ, target) -> int:
-        a = g.Accessor(bufferView=view(np.ascontiguousarray(arr).tobytes(), target),
-                       componentType=comp, count=len(arr), type=typ)
-        if typ == g.VEC3:
-            a.min, a.max = arr.min(0).tolist(), arr.max(0).tolist()
-        accessors.append(a)
-        return len(accessors) - 1
-
-    attrs = g.Attributes(POSITION=acc(p, g.FLOAT, g.VEC3, g.ARRAY_BUFFER),
-                         NORMAL=acc(nrm, g.FLOAT, g.VEC3, g.ARRAY_BUFFER),
-                         TEXCOORD_0=acc(st, g.FLOAT, g.VEC2, g.ARRAY_BUFFER))
-    ind = acc(idx, g.UNSIGNED_SHORT, g.SCALAR, g.ELEMENT_ARRAY_BUFFER)
-    imgs = [g.Image(bufferView=view(_png(im)), mimeType="image/png") for im in images]
+    doc = g.GLTF2(asset=g.Asset(version="2.0"), scene=0, scenes=[g.Scene(nodes=[0])],
+                  nodes=[g.Node(name="plane", mesh=0)],
+                  textures=[g.Texture(source=k, sampler=0) for k in range(3)],
+                  samplers=[g.Sampler(wrapS=g.REPEAT, wrapT=g.REPEAT)])
+    buf = GltfBuffer(doc)
+    attrs = g.Attributes(POSITION=buf.accessor(p, g.VEC3, g.ARRAY_BUFFER, minmax=True),
+                         NORMAL=buf.accessor(nrm, g.VEC3, g.ARRAY_BUFFER, minmax=True),
+                         TEXCOORD_0=buf.accessor(st, g.VEC2, g.ARRAY_BUFFER))
+    ind = buf.accessor(idx, g.SCALAR, g.ELEMENT_ARRAY_BUFFER)
+    doc.images = [g.Image(bufferView=buf.view(_png(im)), mimeType="image/png") for im in images]
     pbr = g.PbrMetallicRoughness(baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=1.0,
                                  roughnessFactor=1.0, baseColorTexture=g.TextureInfo(index=1),
                                  metallicRoughnessTexture=g.TextureInfo(index=2))
-    mat = g.Material(name="facets", pbrMetallicRoughness=pbr,
-                     normalTexture=g.NormalMaterialTexture(index=0))
-    doc = g.GLTF2(asset=g.Asset(version="2.0"), scene=0, scenes=[g.Scene(nodes=[0])],
-                  nodes=[g.Node(name="plane", mesh=0)],
-                  meshes=[g.Mesh(primitives=[g.Primitive(attributes=attrs, indices=ind,
-                                                         material=0)])],
-                  materials=[mat], images=imgs,
-                  textures=[g.Texture(source=k, sampler=0) for k in range(3)],
-                  samplers=[g.Sampler(wrapS=g.REPEAT, wrapT=g.REPEAT)], accessors=accessors,
-                  bufferViews=views, buffers=[g.Buffer(byteLength=len(blob))])
-    doc.set_binary_blob(bytes(blob))
+    doc.materials = [g.Material(name="facets", pbrMetallicRoughness=pbr,
+                                normalTexture=g.NormalMaterialTexture(index=0))]
+    doc.meshes = [g.Mesh(primitives=[g.Primitive(attributes=attrs, indices=ind, material=0)])]
+    buf.embed()
     path.parent.mkdir(parents=True, exist_ok=True)
     doc.save_binary(str(path))
     return path

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 import pygltflib as gl
 
+from sgpipe.io.gltf_buffer import GltfBuffer
+
 EXTENSION = "EXT_lights_image_based"
 RGBD_MAX_RANGE = 255.0      # Babylon.js RGBD: D = floor(min(255/max, 255))/255, gamma 2.2
 RGBD_GAMMA = 2.2
@@ -59,37 +61,11 @@ def face_image(face: np.ndarray) -> np.ndarray:
     return rgbd_encode(face[:, ::-1])
 
 
-class _Builder:
-    """Accessors over one binary buffer (each view 4-byte aligned)."""
-
-    def __init__(self, doc: gl.GLTF2):
-        self.doc = doc
-        self.blob = bytearray()
-
-    def accessor(self, data: np.ndarray, kind: str, target: int | None,
-                 minmax: bool = False) -> int:
-        data = np.ascontiguousarray(data)
-        self.blob += b"\0" * (-len(self.blob) % 4)
-        view = gl.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=data.nbytes,
-                             target=target)
-        self.blob += data.tobytes()
-        self.doc.bufferViews.append(view)
-        ctype = {np.dtype(np.uint32): gl.UNSIGNED_INT, np.dtype(np.uint16): gl.UNSIGNED_SHORT,
-                 np.dtype(np.uint8): gl.UNSIGNED_BYTE}.get(data.dtype, gl.FLOAT)
-        acc = gl.Accessor(bufferView=len(self.doc.bufferViews) - 1, componentType=ctype,
-                          count=int(data.shape[0]), type=kind)
-        if minmax:
-            acc.min = [float(v) for v in data.min(0)]
-            acc.max = [float(v) for v in data.max(0)]
-        self.doc.accessors.append(acc)
-        return len(self.doc.accessors) - 1
-
-
 def ssdf_attribute_names(terms: int) -> list[str]:
     return [f"_SSDF_PCA{j}" for j in range(math.ceil(terms / 4))]
 
 
-def _mesh(b: _Builder, obj: VertexObject) -> gl.Mesh:
+def _mesh(b: GltfBuffer, obj: VertexObject) -> gl.Mesh:
     f32 = np.float32
     attrs = gl.Attributes(
         POSITION=b.accessor(obj.positions.astype(f32), gl.VEC3, gl.ARRAY_BUFFER, minmax=True),
@@ -121,7 +97,7 @@ def _mesh(b: _Builder, obj: VertexObject) -> gl.Mesh:
         gl.Primitive(attributes=attrs, indices=indices, mode=gl.TRIANGLES)])
 
 
-def _add_green06(b: _Builder, prim: gl.Primitive, mesh: gl.Mesh, t) -> None:
+def _add_green06(b: GltfBuffer, prim: gl.Primitive, mesh: gl.Mesh, t) -> None:
     """Green06's attributes on `prim` and its tables in `mesh.extras.sgpipe_green06`."""
     from sgpipe.export import green06
     for name, (arr, kind) in green06.vertex_attributes(t).items():
@@ -131,7 +107,7 @@ def _add_green06(b: _Builder, prim: gl.Primitive, mesh: gl.Mesh, t) -> None:
     mesh.extras = {**(mesh.extras or {}), "sgpipe_green06": green06.extras(t, acc)}
 
 
-def _green06_mesh(b: _Builder, t) -> gl.Mesh:
+def _green06_mesh(b: GltfBuffer, t) -> gl.Mesh:
     """A mesh of its own for a transport object whose vertices are not a visibility mesh's."""
     f32 = np.float32
     attrs = gl.Attributes(
@@ -153,7 +129,7 @@ def build_gltf(objects: list[VertexObject], *, irradiance: np.ndarray,
     turn) becomes the light's `rotation`; `irradiance` and the specular images are in the
     cube's frame (the runtime turns them by it)."""
     doc = gl.GLTF2(asset=gl.Asset(version="2.0", generator="sgpipe export"))
-    b = _Builder(doc)
+    b = GltfBuffer(doc)
     for obj in objects:
         doc.meshes.append(_mesh(b, obj))
         doc.nodes.append(gl.Node(name=obj.name, mesh=len(doc.meshes) - 1))
