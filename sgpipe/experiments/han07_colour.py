@@ -65,9 +65,16 @@ def cell(minification: float, *, size: int, spp: int, out: Path) -> dict:
     nmap = H.DATA / H.MAPS["grooves"]
     kd, ks = colour_textures(nmap, out / "textures")
     scene = H.subject_scene("plane", minification, size, out / "meshes")
-    runs = out / "runs" / f"m{minification:g}"
-    r = H.render(_config(scene, nmap, [*METHODS, "reference"], kd, ks, True, spp,
-                         H.DEFAULT_LOBES), runs / "features")
+    return score_cell(lambda methods, features, lobes: _config(scene, nmap, methods, kd, ks,
+                                                               features, spp, lobes),
+                      out / "runs" / f"m{minification:g}")
+
+
+def score_cell(config, runs: Path) -> dict:
+    """One minification's cell of a coloured subject: `config(methods, features, lobes)` →
+    its Config; METHODS and the reference with the features (J = DEFAULT_LOBES), then vmf per
+    VMF_RUNS, each run under `runs`, scored against that reference."""
+    r = H.render(config([*METHODS, "reference"], True, H.DEFAULT_LOBES), runs / "features")
     if "error" in r:
         return {c: {"error": r["error"]} for c in columns() + ["reference"]}
     ref, mask = r["reference"], r["_mask"]
@@ -76,7 +83,7 @@ def cell(minification: float, *, size: int, spp: int, out: Path) -> dict:
     for m in METHODS:
         res[m] = H._score(r[m], ref, mask)
     for col, lobes, features in VMF_RUNS:
-        p = H.render(_config(scene, nmap, ["vmf"], kd, ks, features, spp, lobes), runs / col)
+        p = H.render(config(["vmf"], features, lobes), runs / col)
         res[col] = p if "error" in p else H._score(p["vmf"], ref, mask)
     return res
 
@@ -88,11 +95,18 @@ def columns() -> list[str]:
 def run(out: Path, *, size: int = 64, spp: int = 512, minifications=H.MINIFICATIONS,
         log=print) -> dict:
     """{minification: cell}."""
+    return run_cells(cell, "coloured grooves plane", out, size=size, spp=spp,
+                     minifications=minifications, log=log)
+
+
+def run_cells(cell, subject: str, out: Path, *, size: int, spp: int, minifications,
+              log) -> dict:
+    """{minification: cell(m, size=, spp=, out=)}, each logged with its scores."""
     rows = {}
     for m in minifications:
         t0 = time.perf_counter()
         rows[m] = cell(m, size=size, spp=spp, out=out)
-        log(f"[han07] coloured grooves plane {m:g}×: " + ", ".join(
+        log(f"[han07] {subject} {m:g}×: " + ", ".join(
             f"{c} {v['psnr']:.2f}" if "psnr" in v else f"{c} missing"
             for c, v in rows[m].items() if c != "reference")
             + f" dB ({time.perf_counter() - t0:.0f} s)")
@@ -116,8 +130,6 @@ def targets(rows: dict) -> list[dict]:
 
 def section(rows: dict) -> list[str]:
     """The report's Markdown section."""
-    from sgpipe.experiments.han07_report import _f
-    cols = columns()
     L = ["## Coloured map (Fig 2 / Fig 8, eq 22)", "",
          "The grooves map with a colour and specular strength per facet orientation: kd × "
          + ", ".join(f"({', '.join(f'{x:g}' for x in c)})" for _, c, _ in CLUSTERS)
@@ -128,8 +140,15 @@ def section(rows: dict) -> list[str]:
          "(`normalmap.colour_features`, each lobe its own colour); `vmf_mip` / `vmf8_mip`: the "
          "same with the colour's plain MIP (features off); `vmf_han07`: Han07 as published "
          "(J = 4, eq 22 through its trilinear lookup). Cells: "
-         "surface display PSNR (dB) / LDR-ꟻLIP against the reference.", "",
-         "| minification | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
+         "surface display PSNR (dB) / LDR-ꟻLIP against the reference.", ""]
+    return L + table(rows)
+
+
+def table(rows: dict) -> list[str]:
+    """The cells' Markdown table (columns()), then a blank line."""
+    from sgpipe.experiments.han07_report import _f
+    cols = columns()
+    L = ["| minification | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
     for m, c in rows.items():
         L.append(f"| {m:g}× | " + " | ".join(
             f"{_f(c[k]['psnr'])} / {_f(c[k]['flip'], '{:.3f}')}" if "psnr" in c.get(k, {})
@@ -137,20 +156,26 @@ def section(rows: dict) -> list[str]:
     return L + [""]
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=Path("out/figures/han07_colour"))
+def standalone(argv, module, name: str) -> int:
+    """A coloured subject's command line (`module`: its run, section and targets): its section
+    and targets to stdout and `<out>/<name>.md`."""
+    ap = argparse.ArgumentParser(description=module.__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=Path(f"out/figures/{name}"))
     ap.add_argument("--minifications", default=",".join(f"{m:g}" for m in H.MINIFICATIONS))
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
-    rows = run(a.out, minifications=tuple(float(m) for m in a.minifications.split(",")),
-               log=lambda s: print(s, file=sys.stderr, flush=True))
-    tg = targets(rows)
-    lines = section(rows) + ["| target | value | met |", "|---|---|---|"] + [
-        f"| {t['name']} | {t['value']} | {'met' if t['met'] else 'no'} |" for t in tg]
-    (a.out / "han07_colour.md").write_text("\n".join(lines) + "\n")
+    rows = module.run(a.out, minifications=tuple(float(m) for m in a.minifications.split(",")),
+                      log=lambda s: print(s, file=sys.stderr, flush=True))
+    lines = module.section(rows) + ["| target | value | met |", "|---|---|---|"] + [
+        f"| {t['name']} | {t['value']} | {'met' if t['met'] else 'no'} |"
+        for t in module.targets(rows)]
+    (a.out / f"{name}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     return 0
+
+
+def main(argv=None) -> int:
+    return standalone(argv, sys.modules[__name__], "han07_colour")
 
 
 if __name__ == "__main__":

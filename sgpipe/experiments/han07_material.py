@@ -12,11 +12,9 @@ report's "glTF material map" section); alone:
 
 from __future__ import annotations
 
-import argparse
 import io
 import math
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -29,9 +27,6 @@ from sgpipe.experiments import han07_colour as HC
 CLUSTERS = (((1, 0), (0.85, 0.18, 0.10), 0.25, 0.0), ((-1, 0), (0.55, 0.65, 0.95), 0.6, 1.0),
             ((0, 1), (0.15, 0.80, 0.15), 0.7, 0.0), ((0, -1), (0.95, 0.80, 0.35), 0.2, 1.0))
 FLAT = ((0.5, 0.5, 0.5), 0.5, 0.0)
-METHODS = HC.METHODS
-TARGET_DB = HC.TARGET_DB
-VMF_RUNS = HC.VMF_RUNS
 
 
 def material_images(normal_map: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -109,45 +104,27 @@ def _config(glb: Path, camera: dict, methods, features: bool, spp: int, lobes: i
 
 def cell(minification: float, *, size: int, spp: int, out: Path) -> dict:
     """{column: {image, psnr, flip} or {error}, "reference": {...}} of one minification;
-    columns VMF_RUNS beside METHODS'."""
+    columns HC.VMF_RUNS beside HC.METHODS' (`han07_colour.score_cell`)."""
     images = material_images(H.DATA / H.MAPS["grooves"])
     glb = plane_glb(out / "assets" / f"plane_m{minification:g}.glb",
                     3.0 * size * minification / 256.0, images)
     d = 1.0 / math.tan(math.radians(H.PLANE_FOV / 2))
     camera = {"eye": [0.0, d, 0.0], "target": [0.0, 0.0, 0.0], "up": [0.0, 0.0, -1.0],
               "fov_deg": H.PLANE_FOV, "width": size, "height": size}
-    runs = out / "runs" / f"m{minification:g}"
-    r = H.render(_config(glb, camera, [*METHODS, "reference"], True, spp, H.DEFAULT_LOBES),
-                 runs / "features")
-    if "error" in r:
-        return {c: {"error": r["error"]} for c in HC.columns() + ["reference"]}
-    ref, mask = r["reference"], r["_mask"]
-    res = {"reference": {"image": ref, "stderr": r.get("_stderr"),
-                         "mean": float(np.mean(ref[mask])) if mask.any() else None}}
-    for m in METHODS:
-        res[m] = H._score(r[m], ref, mask)
-    for col, lobes, features in VMF_RUNS:
-        p = H.render(_config(glb, camera, ["vmf"], features, spp, lobes), runs / col)
-        res[col] = p if "error" in p else H._score(p["vmf"], ref, mask)
-    return res
+    return HC.score_cell(lambda methods, features, lobes: _config(glb, camera, methods,
+                                                                  features, spp, lobes),
+                         out / "runs" / f"m{minification:g}")
 
 
 def run(out: Path, *, size: int = 64, spp: int = 512, minifications=H.MINIFICATIONS,
         log=print) -> dict:
     """{minification: cell}."""
-    rows = {}
-    for m in minifications:
-        t0 = time.perf_counter()
-        rows[m] = cell(m, size=size, spp=spp, out=out)
-        log(f"[han07] glTF material grooves plane {m:g}×: " + ", ".join(
-            f"{c} {v['psnr']:.2f}" if "psnr" in v else f"{c} missing"
-            for c, v in rows[m].items() if c != "reference")
-            + f" dB ({time.perf_counter() - t0:.0f} s)")
-    return rows
+    return HC.run_cells(cell, "glTF material grooves plane", out, size=size, spp=spp,
+                        minifications=minifications, log=log)
 
 
 def targets(rows: dict) -> list[dict]:
-    """vmf with the material's features ≥ TARGET_DB over the same vmf with the pixel's
+    """vmf with the material's features ≥ HC.TARGET_DB over the same vmf with the pixel's
     filtered material, per minification and lobe count."""
     return [{**t, "name": t["name"].replace("colour features", "material features")
              .replace("the colour's plain MIP", "the pixel's filtered material"),
@@ -156,8 +133,6 @@ def targets(rows: dict) -> list[dict]:
 
 def section(rows: dict) -> list[str]:
     """The report's Markdown section."""
-    from sgpipe.experiments.han07_report import _f
-    cols = HC.columns()
     L = ["## glTF material map (Fig 2 / Fig 8, eq 22 with eq 21)", "",
          "The grooves map as a glTF normal texture with a base colour (sRGB), roughness and "
          "metalness per facet orientation: "
@@ -169,29 +144,12 @@ def section(rows: dict) -> list[str]:
          "(`normalmap.colour_features`: each lobe its own kd, F0 and roughness); `vmf_mip` / "
          "`vmf8_mip`: the same with the pixel's filtered material (features off); "
          "`vmf_han07`: Han07 as published (J = 4). Cells: surface display PSNR (dB) / "
-         "LDR-ꟻLIP against the reference.", "",
-         "| minification | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
-    for m, c in rows.items():
-        L.append(f"| {m:g}× | " + " | ".join(
-            f"{_f(c[k]['psnr'])} / {_f(c[k]['flip'], '{:.3f}')}" if "psnr" in c.get(k, {})
-            else "missing" for k in cols) + " |")
-    return L + [""]
+         "LDR-ꟻLIP against the reference.", ""]
+    return L + HC.table(rows)
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=Path("out/figures/han07_material"))
-    ap.add_argument("--minifications", default=",".join(f"{m:g}" for m in H.MINIFICATIONS))
-    a = ap.parse_args(argv)
-    a.out.mkdir(parents=True, exist_ok=True)
-    rows = run(a.out, minifications=tuple(float(m) for m in a.minifications.split(",")),
-               log=lambda s: print(s, file=sys.stderr, flush=True))
-    tg = targets(rows)
-    lines = section(rows) + ["| target | value | met |", "|---|---|---|"] + [
-        f"| {t['name']} | {t['value']} | {'met' if t['met'] else 'no'} |" for t in tg]
-    (a.out / "han07_material.md").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
-    return 0
+    return HC.standalone(argv, sys.modules[__name__], "han07_material")
 
 
 if __name__ == "__main__":
