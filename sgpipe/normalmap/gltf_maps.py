@@ -21,9 +21,9 @@ def gltf_normal_maps(cfg, taken: set[str], with_features: bool = False) -> list[
     `<file stem>_<material>` (unique against `taken`, which grows). BadInput for a texture
     the pyramids cannot hold: not square power-of-two, MIRRORED_REPEAT, KHR_texture_transform.
     `with_features`: also `material` = (factors, base-colour, metallic-roughness GltfTexture)
-    where the material has either texture (`material_textures`)."""
+    where the material has either texture (render.setup.gltf_textures)."""
     from sgpipe.normalmap.read import validate_texels
-    from sgpipe.render.setup import _gltf_material, gltf_normal_texture
+    from sgpipe.render.setup import _gltf_material, gltf_normal_texture, gltf_textures
     assets: dict = {}
     maps: dict[tuple, dict] = {}
     for o in cfg.scene.objects if cfg.scene is not None else []:
@@ -59,19 +59,9 @@ def gltf_normal_maps(cfg, taken: set[str], with_features: bool = False) -> list[
             maps[key] = {"name": name, "path": o.mesh, "key": where, "objects": [],
                          "textures": (None, None), "texels": np.ascontiguousarray(img[..., :3]),
                          "wrap": [WRAP_NAMES[w] for w in tex.wrap]}
-            if with_features:
-                found_tex = material_textures(asset, index)
-                if found_tex is not None:
-                    maps[key]["material"] = (dict(found[0].params or {}),) + found_tex
+            textured = gltf_textures(cfg, o, assets) if with_features else None
+            if textured is not None and (textured[1] is not None or textured[2] is not None):
+                spec, base, mr, _ = textured
+                maps[key]["material"] = (dict(spec.params or {}), base, mr)
         maps[key]["objects"].append(o.name)
     return list(maps.values())
-
-
-
-def material_textures(asset, index: int):
-    """(base-colour, metallic-roughness) GltfTextures of a glTF material that has either, as the
-    features of its normal texture's pyramid (Han07 eq 22), or None."""
-    from sgpipe.io.gltf_textures import material_texture
-    base = material_texture(asset, index, "baseColorTexture")
-    mr = material_texture(asset, index, "metallicRoughnessTexture")
-    return None if base is None and mr is None else (base, mr)

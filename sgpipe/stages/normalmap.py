@@ -87,6 +87,7 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
                   force=force) as run:
         if run.skipped:
             return run
+        from sgpipe.artifacts.normalmap import FEATURE_NAMES, GLTF_FEATURE_NAMES
         from sgpipe.normalmap.vmf import VMFSettings, progress_steps
         nm = cfg.normalmap
         settings = VMFSettings(lobes=nm.lobes, levels=nm.levels, align=nm.align,
@@ -98,7 +99,9 @@ def run(cfg, out_dir: Path, *, force: bool = False) -> StageRun | None:
         bar = _bar(steps)
         try:
             for m, n, t, ft in zip(maps, normals, texels, features):
-                run.report[m["name"]] = _process(run, nm, settings, m["name"], n, t, ft, bar)
+                names = GLTF_FEATURE_NAMES if "material" in m else FEATURE_NAMES
+                run.report[m["name"]] = _process(run, nm, settings, m["name"], n, t, ft, names,
+                                                 bar)
         finally:
             if bar:
                 bar.render_finish()
@@ -148,7 +151,7 @@ def _sh_map(lmax: int):
 
 
 def _process(run: StageRun, nm, settings, name: str, normals: np.ndarray, texels: np.ndarray,
-             features: np.ndarray | None, bar) -> dict:
+             features: np.ndarray | None, feature_names: tuple, bar) -> dict:
     from sgpipe.artifacts import normalmap as art
     from sgpipe.normalmap import pyramid as P
     from sgpipe.normalmap import quality as Q
@@ -191,11 +194,7 @@ def _process(run: StageRun, nm, settings, name: str, normals: np.ndarray, texels
         pyr = fit_vmf_pyramid(normals, settings, progress=tick, fine=fine, features=features)
         run.timings[f"{name}.vmf_s"] = time.perf_counter() - t
         art.write_vmf(run, name, pyr.alpha, pyr.alpha_r, kappa_max=nm.kappa_max,
-                      aligned=nm.align, alpha_f=pyr.alpha_f,
-                      feature_names=art.GLTF_FEATURE_NAMES
-                      if features is not None
-                      and features.shape[-1] == len(art.GLTF_FEATURE_NAMES)
-                      else art.FEATURE_NAMES)
+                      aligned=nm.align, alpha_f=pyr.alpha_f, feature_names=feature_names)
         shade["vmf"] = [Q.vmf_level(a, ar, s, h) for a, ar in zip(pyr.alpha, pyr.alpha_r)]
     rows = [r for r in METHOD_ROWS if r in shade]
     errors = {r: [round(Q.rel_rms(np.asarray(shade[r][lev]), shade["truth"][lev]), 6)
