@@ -36,10 +36,16 @@ inline float fresnel_dielectric1(float c, float eta) {
     return 0.5f * a * a * (1.0f + b * b);
 }
 
+/* Schlick's F0 + (1 − F0)(1 − c)⁵, c clamped to [0, 1]. */
+inline float3 fresnel_schlick(float3 f0, float c) {
+    float x = 1.0f - clamp(c, 0.0f, 1.0f), x2 = x * x;
+    return f0 + (1.0f - f0) * (x2 * x2 * x);
+}
+
 inline float3 mf_fresnel(__global const float *m, float c) {
     int kind = (int)m[MAT_FRESNEL];
     c = clamp(c, 0.0f, 1.0f);
-    if (kind == 1) { float3 f0 = mat3(m, MAT_F0); float x = 1.0f - c; float x2 = x * x; return f0 + (1.0f - f0) * (x2 * x2 * x); }
+    if (kind == 1) return fresnel_schlick(mat3(m, MAT_F0), c);
     if (kind == 2) return fresnel_conductor(fmax(c, 1e-4f), mat3(m, MAT_ETA), mat3(m, MAT_K));
     if (kind == 3) { float3 e = mat3(m, MAT_ETA); return (float3)(fresnel_dielectric1(c, e.x), fresnel_dielectric1(c, e.y), fresnel_dielectric1(c, e.z)); }
     return (float3)(1.0f);

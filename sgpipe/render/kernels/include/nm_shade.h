@@ -340,9 +340,7 @@ inline float nm_mf_g(int model, float ci, float co, float ch, float oh, float a)
  * their F0 as ks (each lobe its own with material features, eq 22): Schlick's F0 + (1 − F0)(1 −
  * c)⁵, the glTF BRDF's (its ks is 1). */
 inline float3 nm_fres(__global const float *m, float3 ks, int model, float c) {
-    if (model != NM_GLTF) return ks * mf_fresnel(m, c);
-    float x = 1.0f - clamp(c, 0.0f, 1.0f), x2 = x * x;
-    return ks + (1.0f - ks) * (x2 * x2 * x);
+    return model == NM_GLTF ? fresnel_schlick(ks, c) : ks * mf_fresnel(m, c);
 }
 
 /* Specular BRDF × cosine (per unit irradiance, ks and Fresnel included) of one lobe about the
