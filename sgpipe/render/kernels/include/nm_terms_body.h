@@ -145,6 +145,8 @@
 #endif
 #if NM_FILTER == NM_SH
     float yb[4 * NM_MAX_SH4];
+    float rho[NM_RHO_N];        /* eq 12's ρ̂_l: a textured glTF material's at the pixel's α */
+    nm_rho_at(nm_data, bp, sv_ && model == NM_GLTF ? s : -1.0f, rho);
 #endif
     for (int k = 0; k < n_lights; ++k) {
         float4 a = lights[2 * k], b = lights[2 * k + 1];
@@ -187,8 +189,6 @@
                 float3 ol = nm_lift(o, nbar, 0.01f);
                 float3 h = normalize(o + i);          /* o: lifted in the geometric frame */
                 nm_sh_eval(to_local(h, T, B, N), lsh, yb);
-                float rho[NM_RHO_N];    /* a textured glTF material's at the pixel's α */
-                nm_rho_at(nm_data, bp, sv_ && model == NM_GLTF ? s : -1.0f, rho);
                 float reff = fmax(nm_sh_dot(g, yb, rho, lsh), 0.0f);               /* eq 12 */
                 float ci = dot(nbar, i);
                 if (ci > 0.0f) {
