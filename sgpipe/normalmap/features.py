@@ -72,12 +72,9 @@ def gltf_map_features(params: dict, base, mr, n: int) -> np.ndarray | None:
     `base`, `mr`: the material's GltfTextures (None: no such texture); both None: None."""
     if base is None and mr is None:
         return None
-    from types import SimpleNamespace
-
+    from sgpipe.render.materials import GltfFactors
     from sgpipe.render.setup import linear_parameters
-    g = SimpleNamespace(
-        base_color=np.broadcast_to(np.asarray(params.get("base_color", 1.0), float), (3,)),
-        metallic=float(params.get("metallic", 1.0)), roughness=float(params.get("roughness", 1.0)))
+    g = GltfFactors.of_params(params)
     lin = linear_parameters(g, base, mr)
     if lin is None or lin[1].matrix is not None:
         return sampled_linear(g, base, mr, n)

@@ -50,6 +50,13 @@ class GltfFactors:
     #: t towards the handed bitangent, then turned by the rotation), B × the strength
     anisotropy_texture: int = -1
 
+    @classmethod
+    def of_params(cls, p: dict) -> "GltfFactors":
+        """The factors of a gltf_pbr material's params (glTF's defaults: 1), no textures."""
+        return cls(np.broadcast_to(np.asarray(p.get("base_color", 1.0), float), (3,)),
+                   float(p.get("metallic", 1.0)), float(p.get("roughness", 1.0)),
+                   float(p.get("anisotropy", 0.0)))
+
 
 @dataclass
 class Material:

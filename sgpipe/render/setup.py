@@ -152,10 +152,7 @@ def _gltf_factors(found, textures: Textures):
         return None
     from sgpipe.render.materials import GltfFactors
     spec, base, mr, aniso = found
-    p = spec.params
-    g = GltfFactors(np.broadcast_to(np.asarray(p.get("base_color", 1.0), float), (3,)),
-                    float(p.get("metallic", 1.0)), float(p.get("roughness", 1.0)),
-                    float(p.get("anisotropy", 0.0)))
+    g = GltfFactors.of_params(spec.params)
     if aniso is not None:           # linear data: direction (RG) and strength (B)
         g.anisotropy_texture = textures.add(aniso.image, mip=True, wrap=aniso.wrap,
                                             matrix=aniso.matrix)

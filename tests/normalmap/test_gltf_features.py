@@ -127,15 +127,15 @@ def test_transformed_textures_are_sampled_through_their_transform():
     KHR_texture_transform of scale 2 the map of twice the side holds them twice per axis
     (the textures repeat in its UV square); per-texel products, not products of means."""
     from dataclasses import replace
-    from types import SimpleNamespace
 
     from sgpipe.io.gltf_textures import GltfTexture
     from sgpipe.normalmap import features as F
+    from sgpipe.render.materials import GltfFactors
     rng = np.random.default_rng(3)
     base, mr = GltfTexture(rng.random((64, 64, 3))), GltfTexture(rng.random((64, 64, 3)))
     params = {"base_color": [1.0, 0.5, 0.25], "metallic": 0.9, "roughness": 0.8}
     exact = F.gltf_map_features(params, base, mr, 16)
-    g = SimpleNamespace(base_color=np.array(params["base_color"]), metallic=0.9, roughness=0.8)
+    g = GltfFactors.of_params(params)
     assert np.allclose(F.sampled_linear(g, base, mr, 16), exact, atol=1e-12)
     scale2 = np.diag([2.0, 2.0, 1.0])
     tiled = F.gltf_map_features(params, replace(base, matrix=scale2),
