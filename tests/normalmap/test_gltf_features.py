@@ -5,6 +5,7 @@ lobes' features (kd, F0, ln roughness), each lobe shaded with its own colour, F0
 from __future__ import annotations
 
 import numpy as np
+from pygltflib import REPEAT
 from tests.scene import gltf_builder as gb
 
 #: the two stripe materials: base colour (sRGB), roughness, metallic; and their normals' x
@@ -30,14 +31,14 @@ def striped_quads(folder):
         img["base"][:, sel] = c
         img["mr"][:, sel] = (0.0, r, m)
         img["normal"][:, sel] = _normal_colour(sx)
-    striped = gb.write_glb(gb.textured_quad_maps(img["base"], img["mr"], img["normal"]),
-                           folder / "striped.glb")
+    striped = gb.write_glb(gb.textured_quad(img["base"], img["mr"], normal_img=img["normal"],
+                                            wrap=REPEAT), folder / "striped.glb")
     alone = {}
     for tag, (c, r, m, sx) in STRIPES.items():
         lin = srgb_to_linear(np.round(np.asarray(c) * 255) / 255)    # the PNG's 8 bits
-        doc = gb.textured_quad_maps(None, None, np.tile(_normal_colour(sx), (4, 4, 1)),
-                                    base=tuple(lin), metallic=m,
-                                    roughness=np.round(r * 255) / 255)
+        doc = gb.textured_quad(normal_img=np.tile(_normal_colour(sx), (4, 4, 1)),
+                               base=tuple(lin), metallic=m, roughness=np.round(r * 255) / 255,
+                               wrap=REPEAT)
         alone[tag] = gb.write_glb(doc, folder / f"{tag}.glb")
     return striped, alone
 

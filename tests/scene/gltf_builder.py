@@ -125,22 +125,10 @@ def png_bytes(img: np.ndarray) -> bytes:
 
 
 def textured_quad(base_img=None, mr_img=None, *, base=(1.0, 1.0, 1.0), metallic=1.0,
-                  roughness=1.0, wrap=33071) -> g.GLTF2:
+                  roughness=1.0, wrap=33071, normal_img=None) -> g.GLTF2:
     """A 2 × 2 quad in the x-y plane facing +z, UVs (0, 0) at its top-left corner (glTF's
-    origin) to (1, 1), one material with optional base-colour and metallic-roughness PNGs."""
-    p = np.array([[-1, 1, 0], [1, 1, 0], [1, -1, 0], [-1, -1, 0]], np.float32)
-    n = np.array([[0, 0, 1]] * 4, np.float32)
-    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
-    idx = np.array([0, 3, 2, 0, 2, 1], np.uint16)
-    return primitive_doc(p, n, uv, idx, {"baseColorTexture": base_img,
-                                         "metallicRoughnessTexture": mr_img},
-                         base=base, metallic=metallic, roughness=roughness, wrap=wrap)
-
-
-def textured_quad_maps(base_img, mr_img, normal_img, *, base=(1.0, 1.0, 1.0), metallic=1.0,
-                       roughness=1.0) -> g.GLTF2:
-    """`textured_quad` with a normal texture too (REPEAT samplers; no TANGENT: MikkTSpace's
-    tangent runs along +x)."""
+    origin) to (1, 1), one material with optional base-colour, metallic-roughness and normal
+    PNGs (no TANGENT: MikkTSpace's tangent runs along +x)."""
     p = np.array([[-1, 1, 0], [1, 1, 0], [1, -1, 0], [-1, -1, 0]], np.float32)
     n = np.array([[0, 0, 1]] * 4, np.float32)
     uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
@@ -148,7 +136,7 @@ def textured_quad_maps(base_img, mr_img, normal_img, *, base=(1.0, 1.0, 1.0), me
     return primitive_doc(p, n, uv, idx, {"baseColorTexture": base_img,
                                          "metallicRoughnessTexture": mr_img,
                                          "normalTexture": normal_img},
-                         base=base, metallic=metallic, roughness=roughness, wrap=10497)
+                         base=base, metallic=metallic, roughness=roughness, wrap=wrap)
 
 
 def primitive_doc(p, n, uv, idx, images: dict, *, tangents=None, normal_scale=None,
