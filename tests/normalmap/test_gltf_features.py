@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 from pygltflib import REPEAT
+
 from tests.scene import gltf_builder as gb
 
 #: the two stripe materials: base colour (sRGB), roughness, metallic; and their normals' x
