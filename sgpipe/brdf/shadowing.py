@@ -70,8 +70,11 @@ class Shadowing:
         return SHADOWING_CODES[self.kind]
 
     def s_tab(self, v):
+        """The table linear between bin centres and from the last one to S(π/2) = 0 (every
+        microfacet surface's masking ends at grazing; microfacet.h shadow_table)."""
         th = np.arccos(np.clip(v[..., 2], -1.0, 1.0))
-        return np.where(v[..., 2] > 0, np.interp(th, SHADOW_THETA, self.table), 0.0)
+        return np.where(v[..., 2] > 0, np.interp(th, np.append(SHADOW_THETA, np.pi / 2),
+                                                 np.append(self.table, 0.0)), 0.0)
 
     def __call__(self, o, i, h):
         ci = np.maximum(i[..., 2], 0.0)

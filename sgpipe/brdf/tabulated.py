@@ -46,15 +46,39 @@ def shadow_pca(shadow, n_components: int = 8):
     """Wang09 §4.2: compress a 90-D shadowing vector to n coefficients with a PCA basis built
     from Smith GGX/Beckmann G1 curves (α ∈ [0.02, 1]) plus the vector itself.
     Returns (mean (90,), basis (n, 90), coeffs (n,), reconstruction (90,))."""
-    v = np.stack([np.sin(SHADOW_THETA), np.zeros(90), np.cos(SHADOW_THETA)], -1)
-    lib = [g(v, a, a) for a in np.geomspace(0.02, 1.0, 24) for g in (smith_g1_ggx,
-                                                                   smith_g1_beckmann)]
-    lib = np.vstack(lib + [np.asarray(shadow, float)])
+    lib = np.vstack(_g1_library(np.geomspace(0.02, 1.0, 24)) + [np.asarray(shadow, float)])
     mean = lib.mean(axis=0)
     _, _, vt = np.linalg.svd(lib - mean, full_matrices=False)
     basis = vt[:n_components]
     coeffs = basis @ (shadow - mean)
     return mean, basis, coeffs, mean + coeffs @ basis
+
+
+def _g1_library(alphas) -> list:
+    """Smith G1 of GGX and Beckmann at each α on the 90 SHADOW_THETA bins."""
+    v = np.stack([np.sin(SHADOW_THETA), np.zeros(90), np.cos(SHADOW_THETA)], -1)
+    return [g(v, a, a) for a in alphas for g in (smith_g1_ggx, smith_g1_beckmann)]
+
+
+def shadow_tail(shadow, max_theta_deg: float, band_deg: float = 20.0) -> np.ndarray:
+    """S beyond `max_theta_deg`, where no data constrain it, continued by the Smith G1 curve
+    (GGX or Beckmann, α from 0.01 to 2) whose shape best fits the last `band_deg` of the
+    constrained bins, scaled to meet S at the last one: a microfacet surface's S vanishes at
+    grazing, which the least squares' smooth extrapolation does not know."""
+    shadow = np.asarray(shadow, float)
+    deg = np.degrees(SHADOW_THETA)
+    fit = deg < max_theta_deg
+    if fit.all():
+        return shadow.copy()
+    band = fit & (deg >= max_theta_deg - band_deg)
+    lib = np.vstack(_g1_library(np.geomspace(0.01, 2.0, 96)))
+    scale = lib[:, band] @ shadow[band] / np.sum(lib[:, band] ** 2, axis=1)
+    err = np.sum((scale[:, None] * lib[:, band] - shadow[band]) ** 2, axis=1)
+    best = lib[int(np.argmin(err))]
+    last = int(np.flatnonzero(fit)[-1])
+    out = shadow.copy()
+    out[~fit] = best[~fit] * shadow[last] / best[last]
+    return out
 
 
 def _second_diff(n):
@@ -119,6 +143,7 @@ def fit_tabulated(table, *, eta: float = 1.33, iterations: int = 4, phi_stride: 
         ata = a.T @ (a * wt[:, None])
         for c in range(3):
             kd[c], ks[c] = np.maximum(np.linalg.solve(ata, a.T @ (wt * rho[:, c])), 0.0)
+    sh = shadow_tail(sh, max_theta_deg)
     mean, basis, coeffs, recon = shadow_pca(sh)
     recon = np.maximum(recon, 0.0)
     pred = kd / np.pi + ks * (fr * recon[ib] * recon[ob] * d[hb] / (np.pi * ci * co))[:, None]

@@ -72,9 +72,12 @@ inline float g1_beckmann(float3 v, float au, float av) {
     return 1.0f / (1.0f + lam);
 }
 
+/* S(θ) of a 90-bin shadow table (bin centres at 0.5° … 89.5°), linear between centres and
+ * from the last centre to S(90°) = 0, where every microfacet surface's masking ends. */
 inline float shadow_table(__global const float *tab, float cos_theta) {
     float th = acos(clamp(cos_theta, 0.0f, 1.0f)) * (180.0f / 3.14159265358979f) - 0.5f;
-    th = clamp(th, 0.0f, 89.0f);
+    if (th > 89.0f) return tab[89] * fmax(2.0f * (89.5f - th), 0.0f);
+    th = fmax(th, 0.0f);
     int k = min((int)floor(th), 88);
     float f = th - (float)k;
     return mix(tab[k], tab[k + 1], f);
