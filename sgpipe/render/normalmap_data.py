@@ -43,7 +43,7 @@ from sgpipe.errors import BadInput
 
 #: Material models the kernels shade (nm_shade.h NM_LAMBERT … NM_GLTF) → model code.
 BRDF_MODELS = {"lambert": 0, "blinn_phong": 1, "beckmann": 2, "cook_torrance": 3, "ggx": 4,
-               "gltf_pbr": 5}
+               "gltf_pbr": 5, "merl": 6}
 BRDF_STRIDE = 36     # nm_shade.h NM_BRDF_STRIDE
 RHO0 = 16            # first ρ̂_l slot (nm_shade.h NM_RHO_SLOT)
 ENV_SLOT = 13        # environment specular on
@@ -216,16 +216,18 @@ class NormalMapData:
                     nm_env_sh8=opencl.to_device(ctx, np.zeros((1, 4), np.float32)))
 
 
-def load_normalmap_data(cfg, out_dir, specs, textured: list[bool] | None = None
-                        ) -> NormalMapData:
+def load_normalmap_data(cfg, out_dir, specs, textured: list[bool] | None = None,
+                        fitted: list | None = None) -> NormalMapData:
     """The pyramids of the scene's normal-mapped objects from `<out>/normalmap/index.json`, each
-    object's material (its `specs[k]`: Lambert, Blinn–Phong, Beckmann, Cook–Torrance, GGX or
-    glTF metal-rough; other models are refused: eq 20 / 21 are the closed forms these kernels
-    implement) and the
-    environment (SH for nm_sh's diffuse term; specular through Γ_L when there is one).
-    `textured`: per object, whether its material is a textured glTF one (ρ̂_l from the table
-    over α, `with_rho_table`)."""
-    lobes = [material_lobe(spec) for spec in specs]
+    object's material (its `specs[k]`: Lambert, Blinn–Phong, Beckmann, Cook–Torrance, GGX,
+    glTF metal-rough or measured (MERL); other models are refused: eq 20 / 21 are the closed
+    forms these kernels implement, a measured material's fitted NDF lobes the SGs they
+    convolve) and the environment (SH for nm_sh's diffuse term; specular through Γ_L when
+    there is one). `textured`: per object, whether its material is a textured glTF one (ρ̂_l
+    from the table over α, `with_rho_table`); `fitted`: per object, its render.materials
+    Material (a measured material's lobes)."""
+    fitted = fitted or [None] * len(specs)
+    lobes = [material_lobe(spec, mat) for spec, mat in zip(specs, fitted)]
     nm_dir = Path(out_dir) / "normalmap"
     index = nm_dir / "index.json"
     objs = cfg.scene.objects
@@ -267,7 +269,9 @@ def load_normalmap_data(cfg, out_dir, specs, textured: list[bool] | None = None
                                f"stores {stored}", key="normalmap.sh_order")
     taps = int(getattr(cfg.render, "normalmap_max_taps", 1))
     # ρ̂_l, l ≤ SH_LMAX, of every object: nm_sh reads l ≤ its SH order, vmf_han07 l ≤ 8 (eq 26)
-    rho = [specular_sh_coeffs(model, param, SH_LMAX) for model, param in lobes]
+    rho = [merl_sh_coeffs(mat, SH_LMAX) if model == "merl"
+           else specular_sh_coeffs(model, param, SH_LMAX)
+           for (model, param), mat in zip(lobes, fitted)]
     data = NormalMapData.pack(pyramids, [prm for _, prm in lobes], taps,
                               [BRDF_MODELS[mdl] for mdl, _ in lobes], rho,
                               footprint=cfg.render.normalmap_footprint)
@@ -298,17 +302,30 @@ def published_sh_order(model: str, param: float) -> int:
     return max(int(math.ceil(math.sqrt(4.0 * max(s, 0.0)) - 1e-4)), 2)
 
 
-def material_lobe(spec) -> tuple[str, float]:
+def material_lobe(spec, fitted=None) -> tuple[str, float]:
     """(model, parameter) of a material spec: Blinn–Phong exponent s, Beckmann α,
     Cook–Torrance m or GGX α (`ggx`; `gltf_pbr`: max(roughness, 0.06)²), isotropic (Blinn–Phong
-    without Fresnel); Lambert: ('lambert', 1)."""
+    without Fresnel); Lambert: ('lambert', 1); a measured material (`merl`, its fitted
+    Material `fitted`): the GGX α whose D has its D*'s curvature at the peak, 4(1 − α²)/α² =
+    Σ μ_k λ_k / Σ μ_k (Han07 §5's l* from it, as from a GGX α)."""
     params = dict(spec.params or {})
     if spec.model == "lambert":
         return "lambert", 1.0
+    if spec.model == "merl":
+        key = f"fit.materials.{spec.name}.model"
+        if fitted is None or len(fitted.lobe_lambda) == 0:
+            raise BadInput(f"measured material {spec.name!r} has no fitted NDF lobes "
+                           "(run `sgpipe fit`)", key=key)
+        if len(fitted.asg_lambda) or np.any(np.abs(fitted.lobe_axis[:, 2] - 1.0) > 1e-6):
+            raise BadInput(f"the normal-map methods shade isotropic measured materials; "
+                           f"{spec.name!r} was fitted with anisotropic or tilted lobes", key=key)
+        mu, lam = np.asarray(fitted.lobe_mu, float), np.asarray(fitted.lobe_lambda, float)
+        curv = float(np.sum(mu * lam) / np.sum(mu))         # d ln D*/d(n·h) at the peak
+        return "merl", math.sqrt(4.0 / (curv + 4.0))
     if spec.model not in BRDF_MODELS:
         raise BadInput(f"the normal-map methods shade Lambert, Blinn–Phong (Han07 eq 20), "
-                       f"Beckmann, Cook–Torrance, GGX and glTF metal-rough (eq 21) materials; "
-                       f"material {spec.name!r} is {spec.model!r}",
+                       f"Beckmann, Cook–Torrance, GGX, glTF metal-rough (eq 21) and measured "
+                       f"(MERL) materials; material {spec.name!r} is {spec.model!r}",
                        key=f"fit.materials.{spec.name}.model")
     if spec.model == "gltf_pbr":
         from sgpipe.brdf.models import GLTF_MIN_ROUGHNESS
@@ -349,6 +366,15 @@ def specular_function(model: str, param: float):
     return lambda u: np.zeros_like(np.asarray(u, float))
 
 
+def merl_sh_coeffs(fitted, lmax: int) -> np.ndarray:
+    """ρ̂_l, l ≤ lmax, of a measured material's D*(u) = Σ_k μ_k e^{λ_k(u − 1)} (u > 0), its
+    fitted NDF lobes about the normal (the factor nm_merl_m leaves to eq 11 / 12; quadrature)."""
+    from sgpipe.core.sh import zonal_coeffs
+    mu, lam = np.asarray(fitted.lobe_mu, float), np.asarray(fitted.lobe_lambda, float)
+    return zonal_coeffs(lambda u: np.where(u > 0.0, np.sum(
+        mu * np.exp(lam * (u[..., None] - 1.0)), -1), 0.0), lmax)
+
+
 def specular_sh_coeffs(model: str, param: float, lmax: int) -> np.ndarray:
     """ρ̂_l = 2π ∫ f(u) P_l(u) du, l ≤ lmax, of `specular_function` (eq 11, quadrature)."""
     from sgpipe.core.sh import zonal_coeffs
@@ -358,3 +384,5 @@ def specular_sh_coeffs(model: str, param: float, lmax: int) -> np.ndarray:
 def attach_normalmaps(renderer, data: NormalMapData) -> None:
     """Upload `data` as the renderer's `nm_*` kernel parameters."""
     renderer.static.update(data.device_buffers(renderer.ctx))
+    # a measured material's lobes take each pixel's vMF in a per-pixel record copy
+    renderer.record_scratch = bool(np.any(data.brdf[:, 2] == BRDF_MODELS["merl"]))

@@ -141,7 +141,8 @@ def build_scene(cfg, out_dir: str | Path, methods: list[Method]) -> SceneBundle:
         textured = [(g := mats[names.index(o.material)].gltf) is not None
                     and (g.base_texture >= 0 or g.metal_rough_texture >= 0)
                     for o in cfg.scene.objects]
-        attach_normalmaps(renderer, load_normalmap_data(cfg, out_dir, specs, textured))
+        fitted = [mats[names.index(o.material)] for o in cfg.scene.objects]
+        attach_normalmaps(renderer, load_normalmap_data(cfg, out_dir, specs, textured, fitted))
     return SceneBundle(renderer, objects, [p for _, p in vis], environment_latlong(cfg))
 
 

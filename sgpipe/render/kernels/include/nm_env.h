@@ -197,7 +197,8 @@ inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 
  * isotropic SG. */
 inline float3 nm_points(__global const float *m, const float3 *lks, int model,
                         const float4 *ax, const float4 *lp, int nlob, float3 o, float3 T,
-                        float3 B, float3 N, const Vis *vis, __global const float4 *pts, int n_pts) {
+                        float3 B, float3 N, const Vis *vis, __global const float4 *pts, int n_pts,
+                        __global const float4 *lobes, __global const float *tables) {
     float3 acc = (float3)(0.0f);
     if (model == NM_LAMBERT) return acc;
     for (int k = 0; k < n_pts; ++k) {
@@ -214,9 +215,10 @@ inline float3 nm_points(__global const float *m, const float3 *lks, int model,
                                         : (1.0f - ch * ch) / fmax(ch * ch * lp[j].w * lp[j].w,
                                                                   1e-12f);
             if (model == NM_GGX || model == NM_GLTF) x = 2.0f * log1p(x);
+            if (model == NM_MERL) x = 0.0f;     /* its lobes' tails: no cut */
             if (ch <= 0.0f || x > NM_POINT_CUT) continue;
             spec += lp[j].x * nm_spec(m, lks[j], model, n, o, c, lp[j].y, lp[j].z, lp[j].w,
-                                      ax[j].w);
+                                      ax[j].w, lobes, tables);
         }
         if (spec.x + spec.y + spec.z <= 0.0f) continue;
         acc += spec * pts[2 * k + 1].xyz

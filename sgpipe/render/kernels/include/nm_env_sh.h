@@ -66,12 +66,24 @@ inline float3 nm_sh8_specular(__global const float4 *sh8, const float *rho, floa
 }
 
 /* The BRDF's factors outside ρ_eff(ω_h · μ) (eq 26), at the lobe's mirror direction
- * i = 2(μ·o)μ − o: Blinn–Phong ks (μ·i), microfacet ks F(o·h) G / (μ·o) at h = μ, roughness a. */
+ * i = 2(μ·o)μ − o: Blinn–Phong ks (μ·i), microfacet ks F(o·h) G / (μ·o) at h = μ, roughness a;
+ * a measured material M_o (μ·i) (its ρ̂_l are its D*'s: normalmap_data.merl_sh_coeffs), a the
+ * ratio α′/α of its lobe's convolved roughness to its own. */
 inline float3 nm_sh8_factor(__global const float *m, float3 ks, int model, float3 mu, float3 o,
-                            float a) {
+                            float a, __global const float *tables) {
     float co = dot(mu, o);
     if (co <= 1e-4f) return (float3)(0.0f);
     if (model == NM_BLINN) return ks * co;
+    if (model == NM_MERL) {
+        /* M_o·(n·i) at the mirror direction (its D* in ρ̂) with the masking of the convolved
+         * lobe, as the analytic models' G at α′: the tabulated S at the angle whose tangent is
+         * a (= α′/α) times the view's (Smith G1 depends on α tan θ) */
+        float t = a * sqrt(fmax(1.0f - co * co, 0.0f)) / co;
+        float cw = rsqrt(1.0f + t * t);
+        float3 ow = (float3)(sqrt(fmax(1.0f - cw * cw, 0.0f)), 0.0f, cw);
+        float G = mf_g2(m, tables, ow, (float3)(-ow.x, 0.0f, cw), (float3)(0.0f, 0.0f, 1.0f));
+        return ks * mf_fresnel(m, co) * (m[MAT_GSCALE] * G * MF_INV_PI / co);
+    }
     return nm_fres(m, ks, model, co) * (nm_mf_g(model, co, co, 1.0f, co, a) / co);
 }
 

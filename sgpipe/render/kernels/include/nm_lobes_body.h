@@ -84,7 +84,7 @@
             float3 mu = normalize(to_world(r / lr, T, B, N));
             /* D amplitude (Cook–Torrance); GGX: −κ, the lobe's D convolved (nm_mf_d), the
              * lobe's roughness before the convolution in the exponent's slot */
-            int ggx = model == NM_GGX || model == NM_GLTF;
+            int ggx = model == NM_GGX || model == NM_GLTF || model == NM_MERL;
             float da = ggx ? -kappa : sj * sj / a2;
             float4 par = (float4)(da, ggx ? sj : sp, bnorm * (sp + 1.0f), sqrt(a2));
             /* the box's texels repeat on a periodic map: their equal lobes shade once */
@@ -119,6 +119,7 @@
     if (!at0 || f > 0.0f) {
         float amp;
         float3 q = nm_single_lobe(NM_SH, info.w, rlobe, s, bnorm, &amp);
+        if (model == NM_MERL) amp = -nm_merl_kappa(NM_SH, info.w, rlobe);
         ax[nlob] = (float4)(nbar, amp);
         lp[nlob] = (float4)(at0 ? f : 1.0f, q.x, q.y, q.z);
         lkd[nlob] = kd; lks[nlob] = ks;
@@ -140,6 +141,7 @@
                 wk = n0s[k].x / (float)ntap;
             }
             float3 q = nm_single_lobe(NM_FILTER, info.w, rk, s, bnorm, &amp);
+            if (model == NM_MERL) amp = -nm_merl_kappa(NM_FILTER, info.w, rk);
             if (at0 && nm_merge_tap(ax, lp, lkd, lks, 0, nlob, ak, wk, (float4)(amp, q), kd,
                                     ks)) continue;
             ax[nlob] = (float4)(ak, amp);

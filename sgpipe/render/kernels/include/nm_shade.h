@@ -19,7 +19,11 @@
  *           material's ks (s+2)/(8π)·2π/(s+1)), Beckmann α′ = √(α² + 2/κ), Cook–Torrance
  *           m′ = √(m² + 2/κ) with the amplitude m²/m′² (eq 21, α = m = 2σ); the cosine, masking,
  *           the 1/(n·i)(n·o) factor and the view lift taken at the lobe axis, Fresnel at o·h;
- *           diffuse kd/π · max(0, n̄·i) with n̄ the plain MIP of the normals (linear in the NDF)
+ *           diffuse kd/π · max(0, n̄·i) with n̄ the plain MIP of the normals (linear in the NDF);
+ *           a measured (MERL) material (eq 14 for its fitted D*): each of its record's NDF SG
+ *           lobes convolved with vMF(κ) by λ′ = λκ/(λ + κ), mass kept, times M_o at the lobe
+ *           axis (nm_merl_d, nm_merl_m); the single-lobe methods convolve by their own κ
+ *           (nm_merl_kappa); under the environment the `sg` specular of those lobes
  *   normals_mip  the material's BRDF at n̄/|n̄|
  *   toksvig Blinn–Phong exponent f·s, f = r/(r + s(1 − r)); microfacet roughness
  *           α′² = α² + 2(1 − r)/r (the same variance, Blinn–Phong s ≈ 2/α²); r = |n̄| of the
@@ -68,6 +72,7 @@
 #define NM_COOK 3
 #define NM_GGX 4            /* GGX, separable Smith G1·G1 (model `ggx`) */
 #define NM_GLTF 5           /* GGX, height-correlated Smith G2 (`gltf_pbr`: its diffuse too) */
+#define NM_MERL 6           /* measured: its record's NDF SG lobes × M_o (Wang09 eq 13) */
 #define NM_LIGHT_LAMBDA 2e4f  /* delta lights' sharpness for the SSDF horizon (shading.h cap) */
 #define NM_FEAT_SLOT 12     /* nm_brdf: colour features (eq 22): 1 kd/ks multipliers, 2 glTF */
 #define NM_GLTF_MIN_R 0.06f /* glTF roughness floor (brdf.models.GLTF_MIN_ROUGHNESS) */
@@ -299,6 +304,46 @@ inline void nm_ggx_conv_lobes(float alpha, float kappa, float *lam, float *mu) {
     }
 }
 
+/* κ of the single-lobe methods' vMF for a measured material's lobes (nm_single_lobe's rules
+ * in SG form): toksvig 2/κ = 2(1 − r)/r (its α′² = α² + 2(1 − r)/r), engine_bake and nm_sh
+ * Banerjee's κ(r), normals_mip and an unmapped object none (1e30). */
+inline float nm_merl_kappa(int filter, int has_map, float rl) {
+    if (!has_map || filter == NM_MIP || rl >= 1.0f) return 1e30f;
+    if (filter == NM_TOKSVIG) return rl / fmax(1.0f - rl, 1e-6f);
+    return nm_kappa_of(rl);
+}
+
+/* A measured material's D* at the unit half vector hl of a lobe's frame (z its axis): the
+ * record's NDF SG lobes (the `sg` method's representation of it), each convolved with
+ * vMF(κ = −amp; amp ≥ 0: none) by λ′ = λκ/(λ + κ), μ′ = μλ′/λ (Han07 eq 14 / 21 for a sum
+ * of SGs: a vMF convolved with an SG is the SG of the same mass and that λ′). */
+inline float nm_merl_d(__global const float *m, __global const float4 *lobes, float3 hl,
+                       float amp) {
+    float kappa = amp < 0.0f ? -amp : 1e30f, d = 0.0f;
+    int nsg = min((int)m[MAT_NLOBES], MAX_NDF_LOBES);
+    for (int k = 0; k < nsg; ++k) {
+        float4 L0, L1;
+        ndf_lobe(lobes, m, k, &L0, &L1);
+        float lc = kappa >= 1e20f ? L0.w : L0.w * kappa / (L0.w + kappa);
+        d += L1.x * (lc / L0.w) * exp(lc * (dot(normalize(L0.xyz), hl) - 1.0f));
+    }
+    return d;
+}
+
+/* A measured material's BRDF × cosine without D about the unit axis n: M_o (Wang09 eq 13:
+ * ks, g_scale, its tabulated shadowing, Fresnel at o·h, 1/π(n·i)(n·o)) × (n·i), with o and i
+ * in a frame of n (isotropic: any tangent), and the half vector *hl in it. */
+inline float3 nm_merl_m(__global const float *m, __global const float *tables, float3 ks,
+                        float3 n, float3 o, float3 i, float3 *hl) {
+    float3 t = normalize(cross(n, fabs(n.x) < 0.9f ? (float3)(1.0f, 0.0f, 0.0f)
+                                                   : (float3)(0.0f, 1.0f, 0.0f)));
+    float3 b = cross(n, t);
+    float3 ol = (float3)(dot(o, t), dot(o, b), dot(o, n));
+    float3 il = (float3)(dot(i, t), dot(i, b), dot(i, n));
+    *hl = normalize(ol + il);
+    return mf_M(m, tables, ks, ol, il) * il.z;
+}
+
 /* Microfacet D (the fit stage's peak-normalised form times M_o's 1/π and g_scale, i.e. what
  * multiplies F·G2/((n·i)(n·o))) at cosine ch for roughness a (Beckmann: e^{−tan²/a²}/(4πa²ch⁴);
  * Cook–Torrance: amp·e^{−(θ_h/a)²}/π; GGX: a²/(4π(ch²(a² − 1) + 1)²), or with amp = −κ < 0 — a
@@ -346,14 +391,21 @@ inline float3 nm_fres(__global const float *m, float3 ks, int model, float c) {
 /* Specular BRDF × cosine (per unit irradiance, ks and Fresnel included) of one lobe about the
  * unit axis n: Blinn–Phong exponent e with normalisation `norm` (ρ·cos = norm (n·h)^e (n·i)),
  * or a microfacet model at roughness a with D amplitude `amp` (GGX: e holds the lobe's own
- * roughness before its vMF, nm_mf_d's a0). */
+ * roughness before its vMF, nm_mf_d's a0; a measured material: amp = −κ, nm_merl_d, its
+ * record's lobes in `lobes` and shadow table in `tables`). */
 inline float3 nm_spec(__global const float *m, float3 ks, int model, float3 n, float3 o,
-                      float3 i, float e, float norm, float a, float amp) {
+                      float3 i, float e, float norm, float a, float amp,
+                      __global const float4 *lobes, __global const float *tables) {
     if (model == NM_LAMBERT) return (float3)(0.0f);
     if (model == NM_BLINN) return ks * nm_blinn(n, o, i, e, norm);
     float ci = dot(n, i);
     if (ci <= 0.0f) return (float3)(0.0f);
     float3 ol = nm_lift(o, n, 0.01f);
+    if (model == NM_MERL) {
+        float3 hl;
+        float3 f = nm_merl_m(m, tables, ks, n, ol, i, &hl);
+        return f * nm_merl_d(m, lobes, hl, amp);
+    }
     float co = dot(n, ol);
     float3 h = normalize(ol + i);
     float ch = dot(n, h), oh = dot(ol, h);

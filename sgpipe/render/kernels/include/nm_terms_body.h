@@ -87,7 +87,8 @@
         for (int j = 0; j < nlob; ++j) {
             float rj[NM_RHO_N];     /* a textured glTF lobe's ρ̂ at its own roughness */
             nm_rho_at(nm_data, bp, sv_ && model == NM_GLTF ? lp[j].y : -1.0f, rj);
-            es += lp[j].x * nm_sh8_factor(m, lks[j], model, ax[j].xyz, o, lp[j].w)
+            es += lp[j].x * nm_sh8_factor(m, lks[j], model, ax[j].xyz, o,
+                                          model == NM_MERL ? lp[j].w / s : lp[j].w, tables)
                   * fmax(nm_sh8_specular(nm_env_sh8, rj, o, ax[j].xyz,
                                          j < n0l ? 1e30f : nm_kappa_of(lrl[j])), 0.0f);
         }
@@ -95,18 +96,25 @@
     }
 #else
     if (env_on) {
-        /* a textured glTF material's pixel record (gltf_pixel_record) re-set per lobe */
+        /* a textured glTF material's pixel record (gltf_pixel_record) re-set per lobe; a
+         * measured material's record copied there, its lobes' vMF set per lobe */
         __global float *rw_ = pxmat + gid * MAT_STRIDE;
+        if (model == NM_MERL) {
+            for (int k = 0; k < MAT_STRIDE; ++k) rw_[k] = m[k];
+            m = rw_;
+        }
         for (int j = 0; j < nlob; ++j) {
             int bare = (model == NM_GGX || model == NM_GLTF) && ax[j].w == 1.0f && lp[j].w == s;
-            if (bare || reset_) {
+            if (model == NM_MERL) rw_[MAT_NMKAPPA] = ax[j].w < 0.0f ? -ax[j].w : 0.0f;
+            if (bare || reset_ || model == NM_MERL) {
                 /* the bare GGX material about a normal (level 0's taps, the plain MIP's
                  * lobe): the `sg` method's specular at that normal — the material's NDF
                  * lobes, each warped to three sub-lobes, energy-scaled — which holds GGX's
                  * tail where one SG of the peak-matched roughness loses it at grazing views.
                  * A filtered lobe of a textured glTF material likewise, the record set to the
                  * lobe's F0 and to the GGX whose peak is its D's (eq 21's a = lp.w), then
-                 * back to the pixel's */
+                 * back to the pixel's; a measured material's lobe with its NDF lobes
+                 * convolved by the lobe's vMF (ndf_lobe, MAT_NMKAPPA) */
                 if (sv_ && model == NM_GLTF) {
                     rw_[MAT_F0] = lks[j].x; rw_[MAT_F0 + 1] = lks[j].y;
                     rw_[MAT_F0 + 2] = lks[j].z;
@@ -136,11 +144,12 @@
                                          pyr_lam, pyr_n, pyr_log_ratio, env_mean.xyz, pyr_pts,
                                          NM_EXACT_POINTS ? 0 : n_pts, pyr_raw, raw_n, env_scale);
         }
+        if (model == NM_MERL) rw_[MAT_NMKAPPA] = 0.0f;   /* nm_spec convolves its own */
         /* the point set (a sun) as directional lights: every lobe's exact BRDF at each point,
          * shadowed at the point's own direction (nm_points) */
         if (NM_EXACT_POINTS)
             acc += env_scale * nm_points(m, lks, model, ax, lp, nlob, o, T, B, N, &vis,
-                                         pyr_pts, n_pts);
+                                         pyr_pts, n_pts, lobes, tables);
     }
 #endif
 #if NM_FILTER == NM_SH
@@ -183,7 +192,7 @@
                 diff += lp[j].x * fmax(dot(ax[j].xyz, i), 0.0f);
                 if (model != NM_LAMBERT)
                     spec += lp[j].x * nm_spec(m, lks[j], model, ax[j].xyz, o, i, lp[j].y,
-                                              lp[j].z, lp[j].w, ax[j].w);
+                                              lp[j].z, lp[j].w, ax[j].w, lobes, tables);
             }
             if (model != NM_LAMBERT) {
                 float3 ol = nm_lift(o, nbar, 0.01f);
@@ -194,6 +203,9 @@
                 if (ci > 0.0f) {
                     if (model == NM_BLINN) {
                         spec += ks * (reff * ci);
+                    } else if (model == NM_MERL) {      /* ρ̂_l: its D*'s */
+                        float3 hl;
+                        spec += reff * nm_merl_m(m, tables, ks, nbar, ol, i, &hl);
                     } else {
                         float co = dot(nbar, ol);
                         float3 hb = normalize(ol + i);
@@ -228,7 +240,7 @@
 #endif
             for (int j = 0; j < nlob; ++j)
                 spec += lp[j].x * nm_spec(m, lks[j], model, ax[j].xyz, o, i, lp[j].y, lp[j].z,
-                                          lp[j].w, ax[j].w);
+                                          lp[j].w, ax[j].w, lobes, tables);
         }
         float gd = 1.0f;
         if (model == NM_GLTF) {   /* glTF's diffuse under the F0 0.04 coat: o·h does not
