@@ -150,6 +150,32 @@ def test_guides_exist_and_are_short():
         assert len(page.read_text().splitlines()) <= 260, page
 
 
+def test_readme_results_come_from_the_results_pages():
+    """Each row of the README's results tables is copied from one line of a results page that
+    the paragraph above the table links to: all the row's numbers stand in that line."""
+    text = (ROOT / "README.md").read_text()
+    section = text.split("\n## Results\n", 1)[1].split("\n## ", 1)[0]
+    num = re.compile(r"(?<![\w.])\d+\.\d+(?![\w.])")
+    checked, pages, in_table = 0, [], False
+    for line in section.splitlines():
+        if not line.startswith("|"):
+            if in_table:            # the prose before the next table names its pages afresh
+                pages, in_table = [], False
+            pages += [(ROOT / t).read_text().splitlines() for t in links(line)
+                      if t.startswith("docs/results/")]
+            continue
+        in_table = True
+        numbers = num.findall(line)
+        if not numbers:
+            continue
+        assert pages, f"no results page linked above {line!r}"
+        ok = any(all(re.search(rf"(?<![\d.]){re.escape(n)}(?![\d])", src) for n in numbers)
+                 for page in pages for src in page)
+        assert ok, f"README results row not in its results page: {line!r}"
+        checked += 1
+    assert checked >= 8, checked
+
+
 def test_readme_length():
     assert len((ROOT / "README.md").read_text().splitlines()) <= 350
 
