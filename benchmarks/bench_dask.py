@@ -19,8 +19,8 @@ rays are 10× fewer (160²), so it uses 240-vertex chunks (86 chunks, ~0.5 s eac
 cost then weighs at least as much as in the 512² run; 48-vertex chunks at 160² (~0.1 s) measured
 5–16 % over the pool, the spread of single runs on the shared machine. For N workers pick
 chunk_vertices ≤ vertices / (4 N); going much below ~16 vertices (512²) makes scheduling visible.
-The scheduler runs with queuing off
-(`distributed.scheduler.worker-saturation: inf`, as the README starts it): Dask's default keeps
+The scheduler runs with queuing off (`distributed.scheduler.worker-saturation: inf`, as
+docs/guide/cluster.md starts it): Dask's default keeps
 ~1 chunk per worker thread and sends the next after a round trip, which cost 11–14 % here with
 ~0.1 s chunks (3–10 % with queuing off). The chunks are the same in every run (Dask or not),
 so the artifacts are the same bytes.
@@ -92,8 +92,8 @@ class LocalDask:
     def _start(self, *args: str) -> None:
         dask = Path(sys.executable).parent / "dask"
         log = open(self.logs / f"{args[0]}{len(self.procs)}.log", "wb")
-        # The scheduler as the README starts it for sgpipe: with queuing off, every worker holds
-        # its next chunks already, instead of idling a round trip after each one.
+        # The scheduler as docs/guide/cluster.md starts it for sgpipe: with queuing off, every
+        # worker holds its next chunks already, instead of idling a round trip after each one.
         env = {**os.environ, "DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION": "inf"}
         self.procs.append(subprocess.Popen([str(dask), *args], stdout=subprocess.DEVNULL,
                                            stderr=log, env=env))

@@ -19,7 +19,7 @@ import pytest
 from sgpipe.io import read_exr, read_npz
 
 ROOT = Path(__file__).resolve().parents[1]
-CROSS_CPU_RTOL = 2e-4   # of each array's largest magnitude; documented in the README
+CROSS_CPU_RTOL = 2e-4   # of each array's largest magnitude; docs/guide/config.md, "Reproducibility"
 
 pytestmark = pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64", "aarch64"),
                                 reason="generic target defined for x86-64 and arm64")

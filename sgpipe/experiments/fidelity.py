@@ -1,4 +1,4 @@
-"""The fidelity corpus (issue 26): every method against the validated `reference` on generated
+"""The fidelity corpus: every method against the validated `reference` on generated
 scenes that no method was tuned on.
 
     python -m sgpipe.experiments.fidelity --out out/figures/fidelity [--seed N ...]

@@ -1,5 +1,5 @@
 """Green06's experiments (Fig 5, 6, 7, the §6.1 storage and timing table and the fidelity and
-speed targets of issue 17) through the real stages, with the transport as Green06 published it
+speed targets) through the real stages, with the transport as Green06 published it
 (`transport.sampling: cube`: eq 6 fitted on the light cube's texel centres).
 
     python -m sgpipe.experiments.green06 --out out/figures/green06 [--quick]

@@ -1,4 +1,4 @@
-"""Han07's experiments (issue 16): the paper's Fig 2, 7 and 3 and the issue's quality targets.
+"""Han07's experiments: the paper's Fig 2, 7 and 3 and the quality targets.
 
     python -m sgpipe.experiments.han07 --out out/figures/han07 [--quick]
 

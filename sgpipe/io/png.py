@@ -1,6 +1,8 @@
-"""PNG previews, and reading 8/16-bit data images (textures, normal maps). Tone mapping (documented in the README): exposure scale, then Reinhard
-x/(1+x) per channel is NOT used — previews use a plain clamp after exposure so that
-values <= 1 keep their meaning, followed by the sRGB transfer curve, 8 bits."""
+"""PNG previews, and reading 8/16-bit data images (textures, normal maps).
+
+Tone mapping (docs/guide/render-and-compare.md, "The metrics"): exposure scale, then a plain
+clamp to [0, 1] (no Reinhard x/(1+x), so that values <= 1 keep their meaning), then the sRGB
+transfer curve, 8 bits."""
 
 from __future__ import annotations
 

@@ -1,7 +1,6 @@
 """The render stage end to end on a small shadowed scene (sphere on a floor, sky with a bright
 lobe, a point light): envmap/ written in its documented layout by sg_testlib, fit/ and
-visibility/ by the real stages; sg, gmm, fis vs the Monte Carlo reference: PSNR floors
-(documented in README.md, "Render quality floors")."""
+visibility/ by the real stages; sg, gmm, fis vs the Monte Carlo reference: PSNR floors."""
 
 import json
 from pathlib import Path
@@ -16,7 +15,7 @@ from sgpipe.io import read_exr, write_exr
 
 pytestmark = [pytest.mark.opencl, pytest.mark.slow]
 
-# PSNR floors (dB, linear RGB, peak = metrics default) of this scene; see README.md.
+# PSNR floors (dB, linear RGB, peak = metrics default) of this scene.
 FLOORS = {"sg": 26.0, "gmm": 26.0, "fis": 26.0}   # measured 27.3–27.4 dB at 256 spp
 # Display PSNR (8-bit previews) whole frame / surface pixels and LDR-ꟻLIP ceilings; measured
 # 29.75–29.81 / 28.46–28.53 dB and 0.093 for every method, 3×3 supersampled against the

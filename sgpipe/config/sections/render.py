@@ -151,8 +151,8 @@ class RenderSection:
                            "ray through each pixel centre.", 1, ge=1, le=16)
     fis_samples: int = doc("Samples per pixel N of `fis` (Töral19 uses about 40).", 40, ge=1,
                            le=4096)
-    gmm_taps: int = doc("gmm: trilinear MIP taps per lobe spread over the lobe's vMF (1 = paper "
-                        "000's single lobe-sized lookup, eq 6–10; 16 is 5–14 dB closer to the "
+    gmm_taps: int = doc("gmm: trilinear MIP taps per lobe spread over the lobe's vMF (1 = "
+                        "Töral19's single lobe-sized lookup, eq 6–10; 16 is 5–14 dB closer to the "
                         "reference on the figures' spheres at about fis's cost).", 16, ge=1,
                         le=64)
     gmm_interpolate: bool = doc("gmm: interpolate lobes between fitted views when the fit is "

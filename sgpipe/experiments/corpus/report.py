@@ -96,7 +96,7 @@ def markdown(rows: list[dict], meta: dict, misses: list[str]) -> str:
         out.append(f"| {m} | {_scene(r)} | {v['surface_display_psnr_db']:.1f} | "
                    f"{v['display_psnr_db']:.1f} | {v['surface_flip_ldr']:.3f} | "
                    f"{v['surface_rel_mse']:.2e} | {med:.1f} | {len(cells)} |")
-    out += ["", f"**Goal** (issue 26): `sg` and `gmm` ≥ {meta['goal_db']:.0f} dB surface "
+    out += ["", f"**Goal**: `sg` and `gmm` ≥ {meta['goal_db']:.0f} dB surface "
             "display PSNR on every scene without a normal map: "
             + ("**met**." if not misses else f"**not met** on {len(misses)} cell"
                f"{'s' if len(misses) > 1 else ''}: " + "; ".join(misses) + "."), ""]
