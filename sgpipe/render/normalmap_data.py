@@ -385,4 +385,5 @@ def attach_normalmaps(renderer, data: NormalMapData) -> None:
     """Upload `data` as the renderer's `nm_*` kernel parameters."""
     renderer.static.update(data.device_buffers(renderer.ctx))
     # a measured material's lobes take each pixel's vMF in a per-pixel record copy
-    renderer.record_scratch = bool(np.any(data.brdf[:, 2] == BRDF_MODELS["merl"]))
+    renderer.record_scratch = bool(np.any(np.isin(data.brdf[:, 2], [BRDF_MODELS[k] for k in
+                                                                    ("merl", "ggx", "gltf_pbr")])))

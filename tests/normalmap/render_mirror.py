@@ -47,7 +47,25 @@ def material(model: str, param: float, kd=0.0, ks=1.0, fresnel="none"):
                "ggx": "alpha"}[model]
         params = {key: param, "kd": kd, "ks": ks, "fresnel": fresnel}
     brdf = make_brdf(model, params)
-    return brdf, Material.from_brdf(model, brdf)
+    m = Material.from_brdf(model, brdf)
+    if model in ("ggx", "gltf_pbr"):
+        _as_the_pipeline(m, param)
+    return brdf, m
+
+
+def _as_the_pipeline(m, alpha) -> None:
+    """A GGX material as the render stage builds it: the roughness grid's NDF lobes at α
+    (render.energy.adopt_grid_lobes) and sg's energy table (attach_energy), which the
+    normal-map kernels' environment specular reads through sg_lobes_specular."""
+    from sgpipe.artifacts.fit import RoughLobes, rough_lobes_at
+    from sgpipe.core.ggx_conv import load_lobes
+    from sgpipe.render.energy import attach_energy
+    grid = load_lobes()
+    lam, mu = rough_lobes_at(*grid, alpha)
+    m.lobe_axis = np.tile([0.0, 0.0, 1.0], (len(lam), 1))
+    m.lobe_lambda, m.lobe_mu = lam, mu
+    m.rough_grid = RoughLobes(*grid)
+    attach_energy([m])
 
 
 def renderer(model, param, pyr, *, kd=0.0, ks=1.0, lights=(), env=None, taps=1, rho=None,

@@ -189,6 +189,38 @@ inline float3 nm_spec_env(__global const float *m, float3 ks, int model, float3 
     return acc * env_scale;
 }
 
+/* E_n[a(n·o)] / a(μ·o) for the normals n ~ vMF(μ, κ) of a filtered lobe, a the material's
+ * exact albedo for F ≡ 1 at a view cosine (its energy table's a1, render.energy; 0 at and
+ * below the horizon): the share of the lobe's normals that see the view from below their
+ * horizon, or at another elevation, which the lobe shaded at its axis does not know. The
+ * vMF's 1 − cos β (density ∝ e^{−κt}) by a 4-point Gauss–Laguerre rule, its azimuth by 8
+ * points; 1 without a table, for a textured pixel's record or a sharp lobe. */
+inline float nm_albedo_a1(__global const float4 *t, float x) {
+    if (x <= 0.0f) return 0.0f;
+    float v = (clamp(x, ENERGY_COS_MIN, 1.0f) - ENERGY_COS_MIN) / (1.0f - ENERGY_COS_MIN)
+              * (float)(ENERGY_VIEWS - 1);
+    int v0 = min((int)floor(v), ENERGY_VIEWS - 2);
+    return mix(t[v0].x, t[v0 + 1].x, v - (float)v0);
+}
+
+inline float nm_lobe_albedo_ratio(__global const float *m, __global const float *tables,
+                                  float c, float kappa) {
+    if (m[MAT_ETAB] < 0.0f || m[MAT_SV] > 0.5f || kappa >= 1e4f) return 1.0f;
+    __global const float4 *t = (__global const float4 *)(tables + (int)m[MAT_ETAB]);
+    float den = nm_albedo_a1(t, c);
+    if (den <= 1e-6f) return 1.0f;
+    const float xk[4] = {0.32254769f, 1.74576110f, 4.53662030f, 9.39507091f};
+    const float wk[4] = {0.60315410f, 0.35741869f, 0.03888791f, 0.00053929f};
+    float s = sqrt(fmax(1.0f - c * c, 0.0f)), num = 0.0f;
+    for (int k = 0; k < 4; ++k) {
+        float u = fmin(xk[k] / fmax(kappa, 1e-3f), 2.0f);
+        float r = s * sqrt(u * (2.0f - u));
+        for (int p = 0; p < 8; ++p)
+            num += wk[k] * nm_albedo_a1(t, c * (1.0f - u) + r * cos(0.78539816f * (float)p));
+    }
+    return num / (8.0f * den);
+}
+
 /* The environment's point set (records (c_k, ·), (E_k, ·): a sun, the brightest texels) as
  * directional lights of irradiance E_k: Σ_k f̂_h(SSDF at c_k) E_k Σ_j w_j ρ_j(o, c_k)(n_j·c_k)
  * with each lobe's exact BRDF (nm_spec, lobe j's specular colour lks[j]), as the `sg` and `gmm`

@@ -39,8 +39,10 @@
  * D about μ as an SG in h (Blinn–Phong λ = s′; Beckmann / Cook–Torrance λ = 2/α′²), warped to
  * i-space about the reflected view with its anisotropy (three sub-lobes, nm_env.h), times the
  * BRDF's other factors at each sub-lobe's axis, through the accurate Γ_L pyramid
- * (gamma_lookup_acc, the `sg` method's). nm_sh's specular lobe for the environment is the engine_bake lobe (n̄, κ(|n̄|)):
- * general SH do not rotate cheaply (Han07 footnote 9). Diffuse: the `sg` method's SG-light sum
+ * (gamma_lookup_acc, the `sg` method's); GGX, glTF and measured materials: the `sg`
+ * method's specular of their NDF lobes convolved with the lobe's vMF (nm_terms_body.h). nm_sh's
+ * specular lobe for the environment is the engine_bake lobe (n̄, κ(|n̄|)): general SH do not
+ * rotate cheaply (Han07 footnote 9). Diffuse: the `sg` method's SG-light sum
  * about n̄ (diffuse_env_sg), nm_sh: Σ_{l ≤ 2} Â_l γ_lm L_lm with γ rotated to world.
  * Lights are delta lights of the records' intensity (as the reference's default).
  * Shadows: the object's SSDF visibility (shading.h, vis_*), lights as a hard horizon

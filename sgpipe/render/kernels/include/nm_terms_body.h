@@ -96,25 +96,26 @@
     }
 #else
     if (env_on) {
-        /* a textured glTF material's pixel record (gltf_pixel_record) re-set per lobe; a
-         * measured material's record copied there, its lobes' vMF set per lobe */
+        /* a textured glTF material's pixel record (gltf_pixel_record) re-set per lobe; any
+         * other GGX or measured material's record copied there, its lobes' vMF set per lobe */
         __global float *rw_ = pxmat + gid * MAT_STRIDE;
-        if (model == NM_MERL) {
+        int conv_ = model == NM_MERL || ((model == NM_GGX || model == NM_GLTF) && !reset_);
+        if (conv_) {
             for (int k = 0; k < MAT_STRIDE; ++k) rw_[k] = m[k];
             m = rw_;
         }
         for (int j = 0; j < nlob; ++j) {
-            int bare = (model == NM_GGX || model == NM_GLTF) && ax[j].w == 1.0f && lp[j].w == s;
-            if (model == NM_MERL) rw_[MAT_NMKAPPA] = ax[j].w < 0.0f ? -ax[j].w : 0.0f;
-            if (bare || reset_ || model == NM_MERL) {
-                /* the bare GGX material about a normal (level 0's taps, the plain MIP's
-                 * lobe): the `sg` method's specular at that normal — the material's NDF
-                 * lobes, each warped to three sub-lobes, energy-scaled — which holds GGX's
-                 * tail where one SG of the peak-matched roughness loses it at grazing views.
-                 * A filtered lobe of a textured glTF material likewise, the record set to the
-                 * lobe's F0 and to the GGX whose peak is its D's (eq 21's a = lp.w), then
-                 * back to the pixel's; a measured material's lobe with its NDF lobes
-                 * convolved by the lobe's vMF (ndf_lobe, MAT_NMKAPPA) */
+            if (conv_) rw_[MAT_NMKAPPA] = ax[j].w < 0.0f ? -ax[j].w : 0.0f;
+            if (reset_ || conv_) {
+                /* GGX and measured materials: the `sg` method's specular about the lobe's
+                 * axis — the material's NDF lobes, each warped to three sub-lobes,
+                 * energy-scaled — which holds GGX's tail where one SG of the peak-matched
+                 * roughness loses it at grazing views. A filtered lobe convolves those NDF
+                 * lobes with its vMF (ndf_lobe, MAT_NMKAPPA) and is scaled by its normals'
+                 * mean albedo at the view over the axis' (nm_lobe_albedo_ratio: the normals
+                 * that see the view from below their horizon). A filtered lobe of a textured
+                 * glTF material: the record set to the lobe's F0 and to the GGX whose peak is
+                 * its D's (eq 21's a = lp.w), then back to the pixel's */
                 if (sv_ && model == NM_GLTF) {
                     rw_[MAT_F0] = lks[j].x; rw_[MAT_F0 + 1] = lks[j].y;
                     rw_[MAT_F0 + 2] = lks[j].z;
@@ -127,12 +128,14 @@
                 float3 es[SHARP_CACHE];
                 /* sg reads Fresnel from the record: a glTF lobe's ks (its F0) is the record's */
                 float3 bks = model == NM_GLTF ? mat3(m, MAT_KS) : lks[j];
-                acc += lp[j].x * sg_lobes_specular(m, lobes, tables, bks, op, q, qi, T, B, N,
-                                                   x, &vis, 1, NM_EXACT_POINTS, 1, pyr, pyr_off,
-                                                   pyr_res, pyr_lam, pyr_n, pyr_log_ratio,
-                                                   env_mean, pyr_raw, raw_n, pyr_pts,
-                                                   NM_EXACT_POINTS ? 0 : n_pts, env_scale,
-                                                   lights, 0, es);
+                float cr_ = conv_ && ax[j].w < 0.0f
+                            ? nm_lobe_albedo_ratio(m, tables, dot(ax[j].xyz, o), -ax[j].w) : 1.0f;
+                acc += cr_ * lp[j].x
+                       * sg_lobes_specular(m, lobes, tables, bks, op, q, qi, T, B, N, x, &vis, 1,
+                                           NM_EXACT_POINTS, 1, pyr, pyr_off, pyr_res, pyr_lam,
+                                           pyr_n, pyr_log_ratio, env_mean, pyr_raw, raw_n,
+                                           pyr_pts, NM_EXACT_POINTS ? 0 : n_pts, env_scale,
+                                           lights, 0, es);
                 if (sv_ && model == NM_GLTF) {
                     rw_[MAT_F0] = ks.x; rw_[MAT_F0 + 1] = ks.y; rw_[MAT_F0 + 2] = ks.z;
                     if (reset_) gltf_record_alpha(mf_, rw_, s, s);
@@ -144,7 +147,7 @@
                                          pyr_lam, pyr_n, pyr_log_ratio, env_mean.xyz, pyr_pts,
                                          NM_EXACT_POINTS ? 0 : n_pts, pyr_raw, raw_n, env_scale);
         }
-        if (model == NM_MERL) rw_[MAT_NMKAPPA] = 0.0f;   /* nm_spec convolves its own */
+        if (conv_) rw_[MAT_NMKAPPA] = 0.0f;   /* nm_spec convolves its own */
         /* the point set (a sun) as directional lights: every lobe's exact BRDF at each point,
          * shadowed at the point's own direction (nm_points) */
         if (NM_EXACT_POINTS)
