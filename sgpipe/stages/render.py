@@ -75,6 +75,10 @@ def run(cfg, out_dir: Path, *, force: bool = False):
     upstream = [(stage, cmd, sections) for stage, cmd, sections in UPSTREAM
                 if getattr(cfg, stage) is not None
                 and (stage != "normalmap" or any(normal_mapped(cfg)))]
+    if cfg.normalmap is not None and cfg.normalmap.colour_features:
+        # the pyramids' colour features are the material textures filtered with the normals
+        upstream = [(st, cmd, sec + (("render.material_textures",) if st == "normalmap" else ()))
+                    for st, cmd, sec in upstream]
     for stage, cmd, sections in upstream:
         if not (out_dir / stage / "manifest.json").is_file():
             raise BadInput(f"no {stage} artifacts here: run `sgpipe {cmd}` (or `sgpipe run`) "

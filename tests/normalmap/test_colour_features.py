@@ -77,6 +77,27 @@ def test_stage_filters_each_texture_set_into_its_own_pyramid(tmp_path):
         assert (nm / m["name"] / "vmf_lobe0_features.png").is_file()
 
 
+def test_render_refuses_pyramids_made_with_other_colour_textures(tmp_path):
+    """The features are the material textures filtered with the normals: `sgpipe render` with
+    another kd_map than the pyramids were made with names the normalmap stage and the key (exit
+    2); without colour features the textures are the render's own inputs."""
+    _precompute(tmp_path)
+    fit = subprocess.run([sys.executable, "-m", "sgpipe", "fit", str(tmp_path / "c.yaml"),
+                          "--out", str(tmp_path / "out")], capture_output=True, text=True)
+    assert fit.returncode == 0, fit.stderr[-2000:]
+    write_image(tmp_path / "kd_c.png", np.full((16, 16, 3), 0.5), "uint16")
+    cmd = [sys.executable, "-m", "sgpipe", "render", str(tmp_path / "c.yaml"), "--out",
+           str(tmp_path / "out"), "--set", "render.material_textures.1.kd_map=kd_c.png"]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    err = [ln for ln in r.stderr.splitlines() if ln.startswith("sgpipe: error:")]
+    assert r.returncode == 2 and len(err) == 1, r.stderr[-2000:]
+    assert "normalmap: was made for another config" in err[0]
+    assert "render.material_textures.1.kd_map" in err[0], err[0]
+    r = subprocess.run(cmd + ["--set", "normalmap.colour_features=false"], capture_output=True,
+                       text=True)
+    assert "render.material_textures" not in r.stderr, r.stderr[-2000:]
+
+
 def test_without_colour_features_one_pyramid_and_no_features(tmp_path):
     from sgpipe.artifacts.normalmap import read_vmf
     nm = _precompute(tmp_path, features=False)
