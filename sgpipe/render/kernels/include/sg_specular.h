@@ -43,35 +43,6 @@ inline SG spec_cosine(SG g) {
     return sg_make(p, g.lam, g.mu * eu);
 }
 
-/* ∫ G(i) M_o(i) max(0, i·z) dω ≈ ∫ G(i) 1[i·z > 0] dω · K(p′) with K = M_o·(i·z) (the BRDF's
- * factors without D and the 1/(n·i) of M_o: bounded, smooth where M_o is not near the horizon)
- * at p′, the mean direction of the lobe's part above the shading horizon: the lobe's fraction
- * there, Φ(m/σ) of sg_clamped_cos_mean's Gaussian for u = p·z, and its axis tilted towards z by
- * that part's mean offset σφ/Φ in u (at most 0.5 rad). Replaces C* ⊗ G of eq 41 (±17 % shape
- * error on sharp lobes) and M_o(p)·E[max(0, u)], whose M_o at the axis of a broad lobe near
- * the horizon (1/(n·i) there) is not its mean over the lobe. */
-inline SG spec_visible(SG g, __global const float *m, __global const float *tables, float3 ks,
-                       float3 o) {
-    float c = clamp(g.p.z, -1.0f, 1.0f);
-    float s2 = fmax(1.0f - c * c, 0.0f);
-    float A = mean_resultant(g.lam);
-    float b = A / g.lam, mu_u = c * A;
-    float sd = sqrt(fmax(c * c * (1.0f - 2.0f * b) + s2 * b - mu_u * mu_u, 0.0f)) + 1e-7f;
-    float z = mu_u / sd;
-    float Phi = 0.5f * erfc(-0.70710678f * z);
-    float phi = 0.39894228f * exp(-0.5f * z * z);
-    float du = Phi > 1e-12f ? sd * phi / Phi : 0.0f;          /* the visible part's mean shift */
-    float3 nt = (float3)(0.0f, 0.0f, 1.0f) - c * g.p;
-    float ln = length(nt);
-    float3 p = g.p;
-    if (ln > 1e-7f) {
-        float t = fmin(du / fmax(sqrt(s2), 1e-3f), 0.5f);     /* u = sin(elevation) */
-        p = normalize(g.p + (tan(t) / ln) * nt);
-    }
-    float3 pl = lift(p, 0.05f);
-    return sg_make(p, g.lam, g.mu * mf_M(m, tables, ks, o, pl) * (pl.z * Phi));
-}
-
 /* Wang09 eq 17–20 with the warp's anisotropy kept: an NDF lobe G(h; g, λ, μ) seen from o maps
  * to i-space around p = reflect(o, g) with sharpness λ/4 in the plane of incidence and
  * λ/(4(o·g)²) across it (Jacobian of h = (o + i)/‖o + i‖; Wang09's isotropic λ/(4|o·g|) is
@@ -204,8 +175,12 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
             w.mu *= mf_M(m, tables, ks, op, lift(w.p, 0.05f));
             SG s = sg_product(w, cosq);              /* C* ⊗ ρ*_s, eq 41 / 43 */
 #else
-            SG s = spec_visible(w, m, tables, ks, op);
-            w.mu *= mf_M(m, tables, ks, op, lift(w.p, 0.05f));   /* sharp lights: × E cos */
+            /* M_o at the sub-lobe's axis kept min(σ, 0.5) above the horizon (σ = 1/√λ, at
+             * least 0.05): a broad lobe's axis near or below it is no direction the lobe's
+             * mass comes from, and M_o's 1/(n·i) there multiplied the whole lobe (×20) */
+            w.mu *= mf_M(m, tables, ks, op,
+                         lift(w.p, fmax(0.05f, fmin(rsqrt(w.lam), 0.5f))));
+            SG s = spec_cosine(w);
 #endif
             w.p = quat_rotate(q, w.p);
             s.p = quat_rotate(q, s.p);
