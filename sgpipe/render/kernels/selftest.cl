@@ -54,8 +54,8 @@ __kernel void t_ssdf(__global const float *basis, __global const float *mean, co
                      __global const float *wv, const int has, __global const float4 *dirs,
                      __global float4 *out) {
     int i = get_global_id(0);
-    float4 w[NV > 0 ? NV / 4 : 1];
-    for (int j = 0; j < NV / 4; ++j) w[j] = vload4(j, wv);
+    ssdf_vec w[SSDF_NW];
+    for (int j = 0; j < NV / SSDF_VW; ++j) w[j] = ssdf_vload(j, wv);
     float3 d = dirs[i].xyz;
     float2 uv = hemisphere_to_square(d);
     out[i] = (float4)(ssdf_theta(has, basis, mean, res, w, d), uv.x, uv.y, 0.0f);

@@ -148,7 +148,7 @@ typedef struct {
     float maxd;
     __global const float *basis;
     __global const float *mean;
-    float4 w[NV > 0 ? NV / 4 : 1];
+    ssdf_vec w[SSDF_NW];
 } Vis;
 
 inline void vis_init(Vis *v, int8 ob, float maxd, int tri, float2 bc,
@@ -162,10 +162,12 @@ inline void vis_init(Vis *v, int8 ob, float maxd, int tri, float2 bc,
         v->basis = ssdf_data + OBJ_BASIS(ob); v->mean = ssdf_data + OBJ_MEAN(ob);
         __global const int *f = vfaces + 3 * (OBJ_FACE0(ob) + tri);
         float w0 = 1.0f - bc.x - bc.y;
-        __global const float4 *c0 = (__global const float4 *)(coeffs + (OBJ_VERT0(ob) + f[0]) * NV);
-        __global const float4 *c1 = (__global const float4 *)(coeffs + (OBJ_VERT0(ob) + f[1]) * NV);
-        __global const float4 *c2 = (__global const float4 *)(coeffs + (OBJ_VERT0(ob) + f[2]) * NV);
-        for (int j = 0; j < NV / 4; ++j) v->w[j] = w0 * c0[j] + bc.x * c1[j] + bc.y * c2[j];
+        __global const float *c0 = coeffs + (OBJ_VERT0(ob) + f[0]) * NV;
+        __global const float *c1 = coeffs + (OBJ_VERT0(ob) + f[1]) * NV;
+        __global const float *c2 = coeffs + (OBJ_VERT0(ob) + f[2]) * NV;
+        for (int j = 0; j < SSDF_NW; ++j)
+            v->w[j] = w0 * ssdf_vload(j, c0) + bc.x * ssdf_vload(j, c1)
+                      + bc.y * ssdf_vload(j, c2);
     }
 #endif
 }
