@@ -333,12 +333,19 @@ inline float3 sg_light_diffuse(SG L, SG cosg, float4 qi, const Vis *vis, float3 
     return sg_dot_visibility(g, vis_theta(vis, g.p));
 }
 
+#include "env_diffuse.h"
+
 /* Wang09 eq 39 with the environment's SG light fit, as one sum: Σ_k f_d · (C* ⊗ L*_k) · V^d
  * (sharp lobes: see SHARP_LIGHT). Used by sg, and by gmm and fis for their diffuse term (as
- * Colbert & Křivánek use an irradiance map). */
+ * Colbert & Křivánek use an irradiance map). Eight lobes at a time (env_diffuse.h); under
+ * ENV_DIFFUSE_PER_LOBE one lobe at a time through sg_light_diffuse, the form the lanes are
+ * tested against. */
 inline float3 diffuse_env_sg(__global const float *m, float3 kd, float3 op, float4 q, float4 qi,
                              float3 T, float3 B, float3 N, __global const float4 *env_sg,
                              int n_env_sg, float env_scale, const Vis *vis) {
+#ifndef ENV_DIFFUSE_PER_LOBE
+    return diffuse_env_sg8(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, vis);
+#else
     SG cosg = sg_clamped_cosine(quat_rotate(q, (float3)(0.0f, 0.0f, 1.0f)));
     float3 acc = (float3)(0.0f);
     for (int k = 0; k < n_env_sg; ++k) {
@@ -349,6 +356,7 @@ inline float3 diffuse_env_sg(__global const float *m, float3 kd, float3 op, floa
         acc += mf_diffuse(m, kd, op, fdir) * E;
     }
     return acc;
+#endif
 }
 
 #endif

@@ -41,9 +41,10 @@ inline float2 disk_to_square(float x, float y) {
  * area-preserving map z = 1 − r² (core.sphere.hemisphere_to_concentric_square). */
 inline float2 hemisphere_to_square(float3 d) {
     float z = clamp(d.z, 0.0f, 1.0f);
-    float r = sqrt(1.0f - z);
     float rho = sqrt(d.x * d.x + d.y * d.y);
-    float sc = rho > 0.0f ? r / rho : 0.0f;
+    /* r/ρ with r = √(1 − z); near the pole as 1/√(1 + z) (1 − z = ρ²/(1 + z) for unit d):
+     * 1 − z in float32 keeps few digits there, and the map's r amplifies them (√ of an ulp) */
+    float sc = rho > 0.0f ? (z > 0.5f ? rsqrt(1.0f + z) : sqrt(1.0f - z) / rho) : 0.0f;
     return disk_to_square(d.x * sc, d.y * sc);
 }
 
