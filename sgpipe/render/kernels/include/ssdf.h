@@ -125,7 +125,7 @@ inline float ssdf_theta(int has_ssdf, __global const float *basis, __global cons
 /* (f̂_h, λ·f_h) where f_h = min(f̂_h f_h(π/2, λ), ∫G) (both smooth and bounded in ln λ). */
 inline float2 fh_pair_scaled(float theta_d, float lam) {
     if (lam >= FH_TAB_LAMMAX) {
-        float p = 0.5f * erfc(-theta_d * sqrt(lam) * 0.70710678f);
+        float p = half_erfc(-theta_d * sqrt(lam) * 0.70710678f);
         return (float2)(p, 6.28318531f * p);
     }
     float x = (log(fmax(lam, FH_TAB_LAMMIN)) - FH_TAB_L0) / (FH_TAB_L1 - FH_TAB_L0) * (float)(FH_TAB_NL - 1);
