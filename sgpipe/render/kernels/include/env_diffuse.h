@@ -138,7 +138,10 @@ inline Dir8 lift8(Dir8 d, float zmin, int8 on) {
 
 /* sg.h sg_integral_unit per lane. */
 inline float8 sg_integral_unit8(float8 lam) {
-    return SG_TWO_PI * (lam < 1e-4f ? 2.0f - 2.0f * lam : -expm1(-2.0f * lam) / lam);
+    float8 big = 1.0f / lam;
+    if (all(lam >= 9.0f)) return SG_TWO_PI * big;
+    return SG_TWO_PI * (lam < 1e-4f ? 2.0f - 2.0f * lam
+                                    : (lam >= 9.0f ? big : -expm1(-2.0f * lam) / lam));
 }
 
 #ifdef FH_TABLE
