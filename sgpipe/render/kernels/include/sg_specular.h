@@ -58,7 +58,7 @@ inline SG spec_visible(SG g, __global const float *m, __global const float *tabl
     float b = A / g.lam, mu_u = c * A;
     float sd = sqrt(fmax(c * c * (1.0f - 2.0f * b) + s2 * b - mu_u * mu_u, 0.0f)) + 1e-7f;
     float z = mu_u / sd;
-    float Phi = 0.5f * erfc(-0.70710678f * z);
+    float Phi = half_erfc(-0.70710678f * z);
     float phi = 0.39894228f * exp(-0.5f * z * z);
     float du = Phi > 1e-12f ? sd * phi / Phi : 0.0f;          /* the visible part's mean shift */
     float3 nt = (float3)(0.0f, 0.0f, 1.0f) - c * g.p;
