@@ -255,3 +255,28 @@ def test_lookups_agree_with_envmap_python_readers(tmp_path):
     mip = envmap.load_mip_chain(tmp_path)
     np.testing.assert_allclose(tri[:, :3], np.asarray(mip.lookup(dirs, lods.astype(float))),
                                rtol=2e-3, atol=1e-5)
+
+
+def test_fast_math_paths_match_the_functions():
+    """The kernels' shortcuts for the library's sin/cos/tan (polynomials on |x| ≤ π/4),
+    ½ erfc (0 and 1 where float32 rounds to them), sinhc and A(λ) (λ ≥ 9: e^{−2λ} dropped)
+    against float64, on both sides of every switch-over."""
+    from scipy.special import erfc
+    edges = np.array([np.pi / 4, -np.pi / 4, -4.0, 10.5, 9.0, 1e-4, 1e-3], np.float32)
+    x = np.concatenate([np.linspace(-12, 40, 4001, dtype=np.float32),
+                        *[np.nextafter(e, np.float32([-1, 1])[:, None]).ravel() for e in edges],
+                        edges])
+    (out,) = run_kernel("t_fastmath", len(x), [x.astype(np.float32)],
+                        [((len(x), 8), np.float32)])
+    x64 = x.astype(np.float64)
+    np.testing.assert_allclose(out[:, 0], np.sin(x64), rtol=3e-7, atol=3e-7)
+    np.testing.assert_allclose(out[:, 1], np.cos(x64), rtol=3e-7, atol=3e-7)
+    small = np.abs(x64) <= 1.5
+    np.testing.assert_allclose(out[small, 2], np.tan(x64[small]), rtol=5e-7, atol=1e-7)
+    np.testing.assert_allclose(out[:, 3], 0.5 * erfc(x64), rtol=2e-6, atol=3e-8)
+    pos = x64 > 0
+    sinhc = -np.expm1(-2 * x64[pos]) / x64[pos]
+    np.testing.assert_allclose(out[pos, 4], sinhc, rtol=3e-7)
+    far = x64 >= 1.0          # (below, coth λ − 1/λ cancels in float32 either way)
+    A = 1 / np.tanh(x64[far]) - 1 / x64[far]
+    np.testing.assert_allclose(out[far, 5], A, rtol=1e-6)

@@ -96,9 +96,11 @@ inline float cube_lobe_lod(float3 d, float kappa, float a, int N) {
     return 0.5f * log2(omega_s / cube_texel_solid_angle(d, N));
 }
 
-/* A(λ) = coth λ − 1/λ (mean resultant length; λ/3 for small λ). */
+/* A(λ) = coth λ − 1/λ (mean resultant length; λ/3 for small λ; from λ = 9 on coth λ is 1 in
+ * float32, e^{−18} being under half an ulp of 1: no exp there). */
 inline float mean_resultant(float lam) {
     if (lam < 1e-3f) return lam / 3.0f;
+    if (lam >= 9.0f) return 1.0f - 1.0f / lam;
     float e = exp(-2.0f * lam);
     return (1.0f + e) / (1.0f - e) - 1.0f / lam;
 }

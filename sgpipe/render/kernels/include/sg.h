@@ -55,6 +55,29 @@ inline float half_erfc(float x) {
     return x <= -4.0f ? 1.0f : (x >= 10.5f ? 0.0f : 0.5f * erfc(x));
 }
 
+/* sin x and cos x (returned as (sin, cos)) for the small angles of the kernels' lobe offsets:
+ * Cephes' sinf / cosf polynomials on |x| ≤ π/4 (error ≤ 1e-7), the library beyond; the
+ * library's calls reduce the argument out of line (~30 cycles a call) even when |x| < π/4. */
+inline float2 sincos_small(float x) {
+    if (fabs(x) > 0.78539816f) {
+        float c, s = sincos(x, &c);
+        return (float2)(s, c);
+    }
+    float z = x * x;
+    float s = ((-1.9515295891e-4f * z + 8.3321608736e-3f) * z - 1.6666654611e-1f) * z * x + x;
+    float c = ((2.443315711809948e-5f * z - 1.388731625493765e-3f) * z
+               + 4.166664568298827e-2f) * z * z - 0.5f * z + 1.0f;
+    return (float2)(s, c);
+}
+
+/* tan x for |x| ≤ π/4 (Cephes tanf's polynomial, relative error ≤ 2e-7), as sincos_small. */
+inline float tan_small(float x) {
+    if (fabs(x) > 0.78539816f) return tan(x);
+    float z = x * x;
+    return (((((9.38540185543e-3f * z + 3.11992232697e-3f) * z + 2.44301354525e-2f) * z
+              + 5.34112807005e-2f) * z + 1.33387994085e-1f) * z + 3.33331568548e-1f) * z * x + x;
+}
+
 /* Wang09 eq 3 and inverse: f_a(λ) = −2π ln ε / λ. */
 inline float sg_area(float lam) { return -SG_TWO_PI * SG_EPS_LN / lam; }
 inline float sg_lambda_from_area(float area) { return -SG_TWO_PI * SG_EPS_LN / area; }

@@ -66,7 +66,7 @@ inline SG spec_visible(SG g, __global const float *m, __global const float *tabl
     float3 p = g.p;
     if (ln > 1e-7f) {
         float t = fmin(du / fmax(sqrt(s2), 1e-3f), 0.5f);     /* u = sin(elevation) */
-        p = normalize(g.p + (tan(t) / ln) * nt);
+        p = normalize(g.p + (tan_small(t) / ln) * nt);
     }
     float3 pl = lift(p, 0.05f);
     return sg_make(p, g.lam, g.mu * mf_M(m, tables, ks, o, pl) * (pl.z * Phi));
@@ -90,7 +90,8 @@ inline void spec_warp(SG g, float3 o, SG *sub, int exact_mass) {
     float3 ea = normalize(cross(w.p, ex));    /* in the plane of incidence, ⊥ p */
     float a = 1.7320508f * sig;
     if (exact_mass) a = fmin(a, 1.5707963f);
-    float ca = cos(a), sa = sin(a);
+    float2 sc = sincos_small(a);
+    float ca = sc.y, sa = sc.x;
     /* exact_mass (GGX materials with an energy table, MAT_WARPN): the sub-lobes carry the
      * warped lobe's integral ∫ G(h) |∂i/∂h| dh = 4 I(λ) E[max(0, o·h)] (I: the SG integral),
      * which is I(λ_x)·μ/(o·g) for a narrow lobe; with μ/(o·g), a broad lobe (rough GGX) gains
@@ -213,7 +214,8 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
             SG s = sg_product(w, cosq);              /* C* ⊗ ρ*_s, eq 41 / 43 */
 #else
             SG s = spec_visible(w, m, tables, ks, op);
-            w.mu *= mf_M(m, tables, ks, op, lift(w.p, 0.05f));   /* sharp lights: × E cos */
+            if (lobe_lights)                 /* w is the lights' (below), s the environment's */
+                w.mu *= mf_M(m, tables, ks, op, lift(w.p, 0.05f));   /* sharp lights: × E cos */
 #endif
             w.p = quat_rotate(q, w.p);
             s.p = quat_rotate(q, s.p);
