@@ -16,14 +16,14 @@ on 2 cores:
   material, uniform and then textured (base colour, metallic-roughness 256² with MIP chains,
   per-pixel roughness-grid lobes): `sg`'s textured frame ≤ 1.3× the uniform one (CPU time,
   same run); `fis` reported beside it.
-- Issue 16, `vmf` ≥ 5 frames/s (Han07, 4 lobes, one point light): configs/normalmap_render.yaml through the
-  real fit and normal-map precompute stages (the grooves map on the floor plane seen at a
-  grazing angle, anisotropic footprint up to 8 taps), and a full-frame variant of it (the plane
-  ×8 with the same texel density: every pixel shaded).
-- Issue 17, `transport` ≥ 5 frames/s (Green06, 1 Gaussian): green06's speed scene (10 242-vertex GGX ball +
-  10 201-vertex Lambert floor = 20 443 vertices, studio map through the real envmap stage), the
-  same with the floor glossy too (all 20 443 vertices carry Gaussians), and that under the
-  sky_sun map (its sun: the point set, shaded with SSDF shadows). The Gaussians are
+- Issue 16, `vmf` ≥ 5 frames/s (Han07, 4 lobes, one point light): configs/normalmap_render.yaml
+  through the real fit and normal-map precompute stages (the grooves map on the floor plane
+  seen at a grazing angle, anisotropic footprint up to 8 taps), and a full-frame variant of it
+  (the plane ×8 with the same texel density: every pixel shaded).
+- Issue 17, `transport` ≥ 5 frames/s (Green06, 1 Gaussian): green06's speed scene (10 242-vertex
+  GGX ball + 10 201-vertex Lambert floor = 20 443 vertices, studio map through the real envmap
+  stage), the same with the floor glossy too (all 20 443 vertices carry Gaussians), and that
+  under the sky_sun map (its sun: the point set, shaded with SSDF shadows). The Gaussians are
   synthetic mirror lobes in the stage's artifact format (benchmarks/_scenes.py
   `write_mirror_transport`), the SSDF data synthetic of the visibility stage's size: fitting
   and tracing 20k vertices take minutes; the kernel's cost depends on the frame, the view set,
@@ -33,9 +33,18 @@ Frame time = the minimum over warm launches of wall-clock (upload-free: the G-bu
 the device, as a rasteriser's would; the kernel build and a first launch happen before the
 timing). On a shared machine wall-clock also counts other processes' time; the report therefore
 adds the process CPU time of the launch (all PoCL threads) and the 2-core estimate 2 / cpu_s,
-and each frame-rate target is judged on the better of the two, on every case listed. (The
-equal-quality
-sg-vs-reference ratio is benchmarks/bench_equal_quality.py.)
+and each absolute frame-rate target is judged on the better of the two, on every case listed;
+sg's by its ratio to the reference kernel, whose CPU time is taken before and after the frames
+(the faster of the two). (The equal-quality sg-vs-reference ratio is
+benchmarks/bench_equal_quality.py.)
+
+Where the sg frame's time goes (perf on the kernel's shared object; benchmarks/HISTORY.md has
+the numbers): PoCL's CPU device runs each work-item as scalar code (its work-item loop holds
+data-dependent inner loops, which LLVM's loop vectoriser leaves alone), so the kernels get
+their vector width from their own data: the environment's 8 SG lights go through in float8
+lanes (kernels/include/env_diffuse.h), the SSDF's PCA terms in 16-float vectors (ssdf.h). The
+rest is the specular sub-lobes (3 per NDF lobe: M_o, the visible part, the clipped lobe and
+its SSDF gradient, two B-spline Γ_L levels and their Hermite) and the SSDF decodes.
 `python -m benchmarks render`; main() returns 0 when every target is met.
 """
 
