@@ -1,23 +1,29 @@
-"""Render-stage frame-rate targets at 512² on the CPU OpenCL device (PoCL), ≥ 5 frames/s for
-the shading pass on 2 cores:
+"""Render-stage frame-rate targets at 512² on the CPU OpenCL device (PoCL), for the shading pass
+on 2 cores:
 
-- ISSUE 6, `sg`: the shadowed teapot (teapot + floor meshes of data_samples/, 1 NDF lobe,
-  8 environment SG lobes, 48 PCA terms at 32² SSDF resolution, one point light). `fis`
-  (N = 40) is timed on the same frame for comparison; the Embree G-buffer is reported
-  separately and end to end. The visibility arrays are synthetic PCA data of the target size
-  (the kernel's cost does not depend on their values).
+- Issue 35 (ISSUE 6's frame), `sg` ≥ 15 frames/s: the shadowed teapot (teapot + floor meshes of
+  data_samples/, 1 NDF lobe, 8 environment SG lobes, 48 PCA terms at 32² SSDF resolution, one
+  point light). The target is the same-run ratio of sg's CPU time to a fixed reference
+  kernel's (`REFERENCE_SRC`: a self-contained scalar loop of exp, log, atan2, sqrt, asin and
+  table reads over the same number of work-items, sharing no code with the package, so its
+  cost measures the machine, not the kernels) ≤ `SG_REF_RATIO`, which is 15 frames/s (2/15 s
+  of CPU on 2 cores) at the reference's CPU time on the development machine; the absolute
+  frame rate is printed beside it with the load average. `fis` (N = 40) is timed on the same
+  frame for comparison; the Embree G-buffer is reported separately and end to end. The
+  visibility arrays are synthetic PCA data of the target size (the kernel's cost does not
+  depend on their values).
 - Issue 29, textured materials: the same frame with teapot and floor in one glTF metal-rough
   material, uniform and then textured (base colour, metallic-roughness 256² with MIP chains,
   per-pixel roughness-grid lobes): `sg`'s textured frame ≤ 1.3× the uniform one (CPU time,
   same run); `fis` reported beside it.
-- Issue 16, `vmf` (Han07, 4 lobes, one point light): configs/normalmap_render.yaml through the
-  real fit and normal-map precompute stages (the grooves map on the floor plane seen at a
-  grazing angle, anisotropic footprint up to 8 taps), and a full-frame variant of it (the plane
-  ×8 with the same texel density: every pixel shaded).
-- Issue 17, `transport` (Green06, 1 Gaussian): green06's speed scene (10 242-vertex GGX ball +
-  10 201-vertex Lambert floor = 20 443 vertices, studio map through the real envmap stage), the
-  same with the floor glossy too (all 20 443 vertices carry Gaussians), and that under the
-  sky_sun map (its sun: the point set, shaded with SSDF shadows). The Gaussians are
+- Issue 16, `vmf` ≥ 5 frames/s (Han07, 4 lobes, one point light): configs/normalmap_render.yaml
+  through the real fit and normal-map precompute stages (the grooves map on the floor plane
+  seen at a grazing angle, anisotropic footprint up to 8 taps), and a full-frame variant of it
+  (the plane ×8 with the same texel density: every pixel shaded).
+- Issue 17, `transport` ≥ 5 frames/s (Green06, 1 Gaussian): green06's speed scene (10 242-vertex
+  GGX ball + 10 201-vertex Lambert floor = 20 443 vertices, studio map through the real envmap
+  stage), the same with the floor glossy too (all 20 443 vertices carry Gaussians), and that
+  under the sky_sun map (its sun: the point set, shaded with SSDF shadows). The Gaussians are
   synthetic mirror lobes in the stage's artifact format (benchmarks/_scenes.py
   `write_mirror_transport`), the SSDF data synthetic of the visibility stage's size: fitting
   and tracing 20k vertices take minutes; the kernel's cost depends on the frame, the view set,
@@ -27,8 +33,18 @@ Frame time = the minimum over warm launches of wall-clock (upload-free: the G-bu
 the device, as a rasteriser's would; the kernel build and a first launch happen before the
 timing). On a shared machine wall-clock also counts other processes' time; the report therefore
 adds the process CPU time of the launch (all PoCL threads) and the 2-core estimate 2 / cpu_s,
-and each target is judged on the better of the two, on every case listed. (The equal-quality
-sg-vs-reference ratio is benchmarks/bench_equal_quality.py.)
+and each absolute frame-rate target is judged on the better of the two, on every case listed;
+sg's by its ratio to the reference kernel, whose CPU time is taken before and after the frames
+(the faster of the two). (The equal-quality sg-vs-reference ratio is
+benchmarks/bench_equal_quality.py.)
+
+Where the sg frame's time goes (perf on the kernel's shared object; benchmarks/HISTORY.md has
+the numbers): PoCL's CPU device runs each work-item as scalar code (its work-item loop holds
+data-dependent inner loops, which LLVM's loop vectoriser leaves alone), so the kernels get
+their vector width from their own data: the environment's 8 SG lights go through in float8
+lanes (kernels/include/env_diffuse.h), the SSDF's PCA terms in 16-float vectors (ssdf.h). The
+rest is the specular sub-lobes (3 per NDF lobe: M_o, the visible part, the clipped lobe and
+its SSDF gradient, two B-spline Γ_L levels and their Hermite) and the SSDF decodes.
 `python -m benchmarks render`; main() returns 0 when every target is met.
 """
 
@@ -41,6 +57,11 @@ import time
 from pathlib import Path
 
 FPS_TARGET = 5.0
+#: issue 35: the sg frame's frame rate, judged as the same-run ratio SG_REF_RATIO
+SG_FPS_TARGET = 15.0
+#: sg CPU / reference kernel CPU, same run: (2 / 15 s) / 0.140 s, the reference's CPU time on
+#: the development machine (2 AVX-512 cores, PoCL 3.1, benchmarks/HISTORY.md 2026-11-30)
+SG_REF_RATIO = 0.95
 #: issue 29: a frame whose materials come from textures per pixel costs at most this many
 #: times the same frame with the uniform material
 TEXTURED_RATIO = 1.3
@@ -68,6 +89,49 @@ def _shade_timing(r, method, fdev, repeats=REPEATS) -> dict:
             "build_s": r.timings.get(f"{method}_build_s", 0.0)}
 
 
+#: The reference kernel of the sg ratio: per work-item a fixed scalar mix of the library's
+#: transcendental calls and table reads (a 256 KiB table, as a kernel's lookups into its
+#: scene data), compiled with the package's options; sharing no code with the package, its
+#: time follows the machine and its load, not the kernels. Never change it: the ratio's
+#: history depends on it.
+REFERENCE_SRC = r"""
+__kernel void bench_reference(const int n, __global const float *tab, __global float *out) {
+    int i = get_global_id(0);
+    if (i >= n) return;
+    uint h = (uint)i * 2654435761u;
+    float x = 0.1f + (float)(i & 1023) * 1e-3f, acc = 0.0f;
+    for (int k = 0; k < 16; ++k) {
+        h = h * 1664525u + 1013904223u;
+        float t = tab[(h >> 9) & 65535];
+        acc += exp(-x * t) + log(1.0f + x + t) + atan2(t, x + 0.5f) + sqrt(x + t)
+               + asin(0.5f * t);
+        x = x * 0.75f + 0.25f * t;
+    }
+    out[i] = acc;
+}
+"""
+
+
+def bench_reference(n: int, repeats=REPEATS) -> dict:
+    """The reference kernel over `n` work-items (work-groups of the renderer's size)."""
+    import numpy as np
+    import pyopencl as cl
+    from sgpipe.render import opencl
+    from sgpipe.render.renderer import LOCAL_SIZE
+    ctx, queue = opencl.get_context()
+    kern = cl.Kernel(cl.Program(ctx, REFERENCE_SRC).build(
+        options=["-cl-fast-relaxed-math"]), "bench_reference")
+    tab = opencl.to_device(ctx, np.random.default_rng(0).random(65536).astype(np.float32))
+    out = opencl.empty_device(ctx, 4 * n)
+
+    def launch():
+        kern(queue, (-(-n // LOCAL_SIZE) * LOCAL_SIZE,), (LOCAL_SIZE,), np.int32(n), tab, out)
+        queue.finish()
+    launch()
+    wall, cpu = _time(launch, repeats)
+    return {"wall_s": wall, "cpu_s": cpu}
+
+
 def bench_fps(repeats=REPEATS) -> dict:
     """`sg` and `fis` on the teapot frame, the G-buffer and end to end."""
     from benchmarks._scenes import teapot_scene
@@ -82,8 +146,13 @@ def bench_fps(repeats=REPEATS) -> dict:
     t_gb = time.perf_counter() - t0
     fdev = r.upload_frame(fr)
     out = {"pixels": int(len(fr.index)), "gbuffer_s": t_gb}
+    out["reference"] = bench_reference(out["pixels"], repeats)
     for method in ("sg", "fis"):     # gmm needs fitted view-GMM tables: see the demo's timings
         out[method] = _shade_timing(r, method, fdev, repeats)
+    # the reference again after the frames: the ratio takes the faster of its two timings
+    again = bench_reference(out["pixels"], repeats)
+    out["reference"]["cpu_s"] = min(out["reference"]["cpu_s"], again["cpu_s"])
+    out["sg_ratio"] = out["sg"]["cpu_s"] / out["reference"]["cpu_s"]
 
     def e2e():
         o, d = cam.rays()
@@ -183,14 +252,21 @@ def main() -> int:
         for case, x in f["transport"].items():
             print(_line(f"transport 512² {case} ({x['vertices']} vertices)", x)
                   + f"; setup {x['setup_s']:.1f} s", flush=True)
-    checks = [("ISSUE 6: sg", [f["sg"]]), ("issue 16: vmf", list(f["vmf"].values())),
+    ok_sg = f["sg_ratio"] <= SG_REF_RATIO
+    print(f"target issue 35: sg ≥ {SG_FPS_TARGET:g} frames/s as sg / reference kernel CPU ≤ "
+          f"{SG_REF_RATIO} (same run): {'met' if ok_sg else 'MISSED'} ({f['sg_ratio']:.3f}; "
+          f"reference {f['reference']['cpu_s'] * 1e3:.0f} ms CPU); absolute {_best(f['sg']):.2f} "
+          f"frames/s ({'met' if _best(f['sg']) >= SG_FPS_TARGET else 'missed'}), "
+          f"load average {os.getloadavg()[0]:.1f}")
+    checks = [("issue 16: vmf", list(f["vmf"].values())),
               ("issue 17: transport", list(f["transport"].values()))]
-    ok = ok_tx
+    ok = ok_tx and ok_sg
     for name, cases in checks:
         best = min(_best(x) for x in cases)      # the slowest case must meet it
         ok &= best >= FPS_TARGET
         print(f"target {name} ≥ {FPS_TARGET} frames/s: "
-              f"{'met' if best >= FPS_TARGET else 'MISSED'} ({best:.2f})")
+              f"{'met' if best >= FPS_TARGET else 'MISSED'} ({best:.2f}), load average "
+              f"{os.getloadavg()[0]:.1f}")
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
     path = Path(tempfile.gettempdir()) / "sgpipe-bench-render.json"
     path.write_text(json.dumps(f, indent=2, default=float))

@@ -151,7 +151,7 @@ def test_environment_as_the_analytic_source(merl, kappa):
     """Under a white environment the measured material's lobe (the `sg` method's specular of
     its NDF lobes, each convolved with the lobe's vMF) gives the analytic GGX's response:
     vmf, toksvig and nm_sh within 10 % (measured 3–8 %); a broad fitted lobe no longer
-    multiplies it (13.7× on a normal-mapped plane before sg_specular.h's spec_visible)."""
+    multiplies it (sg_specular.h: the warped mass exact, M_o read σ above the horizon)."""
     mat, _ = merl
     src = make_brdf("ggx", SOURCE)
     ggx = Material.from_brdf("ggx", src)

@@ -55,11 +55,11 @@ def linear_env(c0=1.0, g=(0.5, 0.3, -0.2), face_res=32, lam0=None) -> tuple[EnvD
     return env, f
 
 
-def selftest_program(fh_mode="sigmoid"):
+def selftest_program(fh_mode="sigmoid", nv=SELFTEST_NV):
     from sgpipe.render.headers import fh_coefficients, kernel_headers
     a, c3, c2, c1, c0 = fh_coefficients()
     ctx, q = opencl.get_context()
-    d = {"NV": SELFTEST_NV, "FH_A": a, "FH_C3": c3, "FH_C2": c2, "FH_C1": c1, "FH_C0": c0}
+    d = {"NV": nv, "FH_A": a, "FH_C3": c3, "FH_C2": c2, "FH_C1": c1, "FH_C0": c0}
     if fh_mode == "table":
         d["FH_TABLE"] = 1
     prg = opencl.build_program(ctx, "selftest", d, headers=kernel_headers(fh_mode))
@@ -71,10 +71,11 @@ def run_kernel_table(name, n, inputs, outputs):
     return run_kernel(name, n, inputs, outputs, fh_mode="table")
 
 
-def run_kernel(name, n, inputs, outputs, fh_mode="sigmoid"):
+def run_kernel(name, n, inputs, outputs, fh_mode="sigmoid", nv=SELFTEST_NV):
     """Launch selftest kernel `name` over n items. inputs: list of arrays/scalars (arrays are
-    uploaded); outputs: list of (shape, dtype). Returns the output arrays."""
-    ctx, q, prg = selftest_program(fh_mode)
+    uploaded); outputs: list of (shape, dtype); nv: the program's NV. Returns the output
+    arrays."""
+    ctx, q, prg = selftest_program(fh_mode, nv)
     args = []
     for x in inputs:
         if isinstance(x, np.ndarray) and x.ndim >= 1:

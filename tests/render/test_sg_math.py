@@ -164,28 +164,34 @@ def test_gamma_pyramid_matches_exact_convolution_of_linear_env():
     assert np.median(np.abs(out[:, 0] / exact - 1)) < 5e-3
 
 
-def test_ssdf_decode_matches_visibility_reference():
+@pytest.mark.parametrize("nv", [SELFTEST_NV, 8, 48])
+def test_ssdf_decode_matches_visibility_reference(nv):
+    """θ_d and the concentric-square map against sgpipe.visibility.decode, for term counts
+    that take each of the decode's vector widths (ssdf.h SSDF_VW 4, 8, 16); directions on the
+    axes, the square's diagonals and the octant boundaries of disk_to_square included."""
     decode = pytest.importorskip("sgpipe.visibility.decode")
     R = 8
     mean = RNG.normal(size=(R, R)).astype(np.float32)
-    basis = RNG.normal(size=(SELFTEST_NV, R, R)).astype(np.float32)
-    w = RNG.normal(size=SELFTEST_NV).astype(np.float32)
-    n = 300
+    basis = RNG.normal(size=(nv, R, R)).astype(np.float32)
+    w = (RNG.normal(size=nv) / np.sqrt(nv / 4)).astype(np.float32)
+    n = 400
     d = _unit(RNG.normal(size=(n, 3)))
-    d[:5] = [[0, 0, 1], [0, 0, -1], [1, 0, 0], [0.6, 0.8, 0], [0, 0.6, -0.8]]
+    d[:9] = [[0, 0, 1], [0, 0, -1], [1, 0, 0], [0.6, 0.8, 0], [0, 0.6, -0.8], [0.5, 0.5, 0.7],
+             [-0.5, 0.5, 0.7], [0, -0.05, 1], [-0.3, 0, 0.9]]
+    d = _unit(d)
     data = np.moveaxis(basis, 0, -1).copy()
     (out,) = run_kernel("t_ssdf", n, [data, mean, np.int32(R), w, np.int32(1), f4(d)],
-                        [((n, 4), np.float32)])
+                        [((n, 4), np.float32)], nv=nv)
     ref = decode.decode_ssdf_local(d, w, mean, basis, max_distance=np.inf)
     np.testing.assert_allclose(out[:, 0], ref, atol=2e-4)
     from sgpipe.core.sphere import hemisphere_to_concentric_square
     up = d[:, 2] >= 0
-    u, v = hemisphere_to_concentric_square(d[up])
-    np.testing.assert_allclose(out[up, 1], u, atol=1e-5)
-    np.testing.assert_allclose(out[up, 2], v, atol=1e-5)
+    u, v = hemisphere_to_concentric_square(d[up].astype(np.float64))
+    np.testing.assert_allclose(out[up, 1], u, atol=2e-6)
+    np.testing.assert_allclose(out[up, 2], v, atol=2e-6)
     # Without data: the tangent plane alone, θ_d = elevation.
     (bare,) = run_kernel("t_ssdf", n, [data, mean, np.int32(R), w, np.int32(0), f4(d)],
-                         [((n, 4), np.float32)])
+                         [((n, 4), np.float32)], nv=nv)
     np.testing.assert_allclose(bare[:, 0], np.arcsin(d[:, 2]), atol=1e-5)
 
 
@@ -249,3 +255,28 @@ def test_lookups_agree_with_envmap_python_readers(tmp_path):
     mip = envmap.load_mip_chain(tmp_path)
     np.testing.assert_allclose(tri[:, :3], np.asarray(mip.lookup(dirs, lods.astype(float))),
                                rtol=2e-3, atol=1e-5)
+
+
+def test_fast_math_paths_match_the_functions():
+    """The kernels' shortcuts for the library's sin/cos/tan (polynomials on |x| ≤ π/4),
+    ½ erfc (0 and 1 where float32 rounds to them), sinhc and A(λ) (λ ≥ 9: e^{−2λ} dropped)
+    against float64, on both sides of every switch-over."""
+    from scipy.special import erfc
+    edges = np.array([np.pi / 4, -np.pi / 4, -4.0, 10.5, 9.0, 1e-4, 1e-3], np.float32)
+    x = np.concatenate([np.linspace(-12, 40, 4001, dtype=np.float32),
+                        *[np.nextafter(e, np.float32([-1, 1])[:, None]).ravel() for e in edges],
+                        edges])
+    (out,) = run_kernel("t_fastmath", len(x), [x.astype(np.float32)],
+                        [((len(x), 8), np.float32)])
+    x64 = x.astype(np.float64)
+    np.testing.assert_allclose(out[:, 0], np.sin(x64), rtol=3e-7, atol=3e-7)
+    np.testing.assert_allclose(out[:, 1], np.cos(x64), rtol=3e-7, atol=3e-7)
+    small = np.abs(x64) <= 1.5
+    np.testing.assert_allclose(out[small, 2], np.tan(x64[small]), rtol=5e-7, atol=1e-7)
+    np.testing.assert_allclose(out[:, 3], 0.5 * erfc(x64), rtol=2e-6, atol=3e-8)
+    pos = x64 > 0
+    sinhc = -np.expm1(-2 * x64[pos]) / x64[pos]
+    np.testing.assert_allclose(out[pos, 4], sinhc, rtol=3e-7)
+    far = x64 >= 1.0          # (below, coth λ − 1/λ cancels in float32 either way)
+    A = 1 / np.tanh(x64[far]) - 1 / x64[far]
+    np.testing.assert_allclose(out[far, 5], A, rtol=1e-6)

@@ -25,6 +25,14 @@ __kernel void t_fh(__global const float2 *x, __global float4 *out) {
     out[i] = (float4)(fh_hat(x[i].x, x[i].y), fh_hemi(x[i].y), mean_resultant(x[i].y), 0.0f);
 }
 
+/* x → (sin x, cos x) of sincos_small, tan_small x, ½ erfc x, sinhc x, A(x), 0, 0. */
+__kernel void t_fastmath(__global const float *x, __global float8 *out) {
+    int i = get_global_id(0);
+    float2 sc = sincos_small(x[i]);
+    out[i] = (float8)(sc.x, sc.y, tan_small(x[i]), half_erfc(x[i]), sg_sinhc(x[i]),
+                      mean_resultant(x[i]), 0.0f, 0.0f);
+}
+
 /* Cubemap chain lookups: bilinear level `lev` of a chain, trilinear MIP at lod, face/s/t. */
 __kernel void t_cube(__global const float4 *data, __global const int *off, __global const int *res,
                      const int nlev, __global const float4 *dirs, __global const float *lods,
@@ -54,8 +62,8 @@ __kernel void t_ssdf(__global const float *basis, __global const float *mean, co
                      __global const float *wv, const int has, __global const float4 *dirs,
                      __global float4 *out) {
     int i = get_global_id(0);
-    float4 w[NV > 0 ? NV / 4 : 1];
-    for (int j = 0; j < NV / 4; ++j) w[j] = vload4(j, wv);
+    ssdf_vec w[SSDF_NW];
+    for (int j = 0; j < NV / SSDF_VW; ++j) w[j] = ssdf_vload(j, wv);
     float3 d = dirs[i].xyz;
     float2 uv = hemisphere_to_square(d);
     out[i] = (float4)(ssdf_theta(has, basis, mean, res, w, d), uv.x, uv.y, 0.0f);

@@ -54,7 +54,8 @@ inline SG sg_clip_visible(SG s, float th, float3 g) {
     float2 c = clip_params(th, s.lam);
     float d = c.x * rsqrt(s.lam);
     SG o;
-    o.p = normalize(cos(d) * s.p + sin(d) * g);
+    float2 sc = sincos_small(d);
+    o.p = normalize(sc.y * s.p + sc.x * g);
     o.lam = s.lam * exp(c.y);
     o.mu = s.mu * (f * sg_integral_unit(s.lam) / sg_integral_unit(o.lam));
     return o;

@@ -96,9 +96,11 @@ inline float cube_lobe_lod(float3 d, float kappa, float a, int N) {
     return 0.5f * log2(omega_s / cube_texel_solid_angle(d, N));
 }
 
-/* A(λ) = coth λ − 1/λ (mean resultant length; λ/3 for small λ). */
+/* A(λ) = coth λ − 1/λ (mean resultant length; λ/3 for small λ; from λ = 9 on coth λ is 1 in
+ * float32, e^{−18} being under half an ulp of 1: no exp there). */
 inline float mean_resultant(float lam) {
     if (lam < 1e-3f) return lam / 3.0f;
+    if (lam >= 9.0f) return 1.0f - 1.0f / lam;
     float e = exp(-2.0f * lam);
     return (1.0f + e) / (1.0f - e) - 1.0f / lam;
 }
@@ -163,18 +165,75 @@ inline float3 gamma_level(__global const float4 *data, int off, int n, int face,
     return accv.xyz;
 }
 
-/* Γ_L at λ (position tt ∈ [0, 1] in ln λ between la and lb) from a cubic Hermite of
- * y = ln Γ_L = ln(S·V) in ln λ with end slopes m (per channel; linear V where V ≤ 0). */
-inline float3 gamma_hermite(float3 va, float3 ma, float la, float3 vb, float3 mb, float lb,
-                            float lambda, float tt) {
+/* The λ-dependent half of an accurate Γ_L lookup (gamma_lookup_acc): which levels, where
+ * between them in ln λ, and the scalars of the Hermite — ln S at both ends, their distance in
+ * ln λ, S(λ). A pixel's sub-lobes of one NDF lobe share their λ (spec_warp), so the sg kernel
+ * plans once per λ and looks up each direction with gamma_lookup_plan. */
+typedef struct {
+    int kind;       /* GL_LEVELS: levels l, l + 1; GL_BELOW: below the broadest level;
+                     * GL_RAW: level 0 towards the raw map; GL_TOP: level 0 alone;
+                     * GL_RAW_ONLY: the raw map */
+    int l;
+    float tt, lsa, lsb, du, s_lam, w, mr;
+} GammaPlan;
+#define GL_LEVELS 0
+#define GL_BELOW 1
+#define GL_RAW 2
+#define GL_TOP 3
+#define GL_RAW_ONLY 4
+
+inline GammaPlan gamma_plan(__global const float *lam, int nlev, float log_ratio, int raw_n,
+                            float lambda) {
+    GammaPlan g;
+    g.l = 0; g.tt = 0.0f; g.lsa = 0.0f; g.lsb = 0.0f; g.du = 0.0f; g.w = 0.0f; g.mr = 0.0f;
+    g.s_lam = sg_integral_unit(lambda);
+    if (lambda >= lam[0]) {
+        /* sharper than level 0: the Hermite of ln Γ_L in ln λ continues from level 0 (V_0, m_0)
+         * to the unfiltered map (pyramid/raw.exr, "cube6v_b1", face res N) at λ_r = 1.5 N²
+         * (bilinear reconstruction blurs by h²/6, h = 2/N), V = V_raw beyond; no raw level
+         * (raw_n = 0): V_0 */
+        float lam_r = 1.5f * (float)raw_n * (float)raw_n;
+        g.kind = GL_TOP;
+        if (raw_n > 0 && lam_r > lam[0]) {
+            g.kind = lambda >= lam_r ? GL_RAW_ONLY : GL_RAW;
+            if (g.kind == GL_RAW) {
+                g.tt = log(lambda / lam[0]) / log(lam_r / lam[0]);
+                float x2 = 2.0f * lam_r;
+                g.mr = x2 / (exp(x2) - 1.0f) - 1.0f;          /* ∂ln S/∂ln λ at λ_r */
+                g.lsa = log(sg_integral_unit(lam[0]));
+                g.lsb = log(sg_integral_unit(lam_r));
+                g.du = log(lam_r / lam[0]);
+            }
+        }
+        return g;
+    }
+    if (lambda < lam[nlev - 1]) {
+        g.kind = GL_BELOW;
+        g.w = mean_resultant(lambda) / mean_resultant(lam[nlev - 1]);
+        return g;
+    }
+    g.kind = GL_LEVELS;
+    float x = log(lam[0] / lambda) / log_ratio;
+    g.l = clamp((int)floor(x), 0, nlev - 2);
+    g.tt = x - (float)g.l;
+    float la = lam[g.l], lb = lam[g.l + 1];
+    g.lsa = log(sg_integral_unit(la));
+    g.lsb = log(sg_integral_unit(lb));
+    g.du = log(lb / la);
+    return g;
+}
+
+/* Γ_L from a cubic Hermite of y = ln Γ_L = ln(S·V) in ln λ with end slopes m (per channel;
+ * linear V where V ≤ 0) between the plan's ends (a at tt = 0, b at tt = 1). */
+inline float3 gamma_hermite(float3 va, float3 ma, float3 vb, float3 mb, const GammaPlan *g) {
     int3 ok = isgreater(va, (float3)(0.0f)) & isgreater(vb, (float3)(0.0f));
-    float3 ya = log(select((float3)(1.0f), va, ok)) + log(sg_integral_unit(la));
-    float3 yb = log(select((float3)(1.0f), vb, ok)) + log(sg_integral_unit(lb));
-    float du = log(lb / la);
+    float3 ya = log(select((float3)(1.0f), va, ok)) + g->lsa;
+    float3 yb = log(select((float3)(1.0f), vb, ok)) + g->lsb;
+    float tt = g->tt, du = g->du;
     float t2 = tt * tt, t3 = t2 * tt;
     float3 y = (2.0f * t3 - 3.0f * t2 + 1.0f) * ya + ((t3 - 2.0f * t2 + tt) * du) * ma
                + (-2.0f * t3 + 3.0f * t2) * yb + ((t3 - t2) * du) * mb;
-    float3 lin = mix(va, vb, tt) * sg_integral_unit(lambda);
+    float3 lin = mix(va, vb, tt) * g->s_lam;
     return select(lin, exp(y), ok);
 }
 
@@ -190,47 +249,37 @@ inline float3 gamma_points(__global const float4 *pts, int n, float3 p, float la
     return acc;
 }
 
-/* Γ_L(p, λ) (Wang09 eq 35), accurate path: λ ≥ λ_0 → towards the raw map (below); between levels ℓ, ℓ+1 a cubic
- * Hermite of ln Γ_L in ln λ with slopes m (per channel; linear V where V_ℓ or V_ℓ₊₁ ≤ 0);
- * below λ_{L−1}: V = mean + A(λ)/A(λ_{L−1}) (V_{L−1} − mean). */
+/* Γ_L(p, λ) (Wang09 eq 35), accurate path, λ's half planned (gamma_plan): λ ≥ λ_0 → towards
+ * the raw map; between levels ℓ, ℓ+1 a cubic Hermite of ln Γ_L in ln λ with slopes m (per
+ * channel; linear V where V_ℓ or V_ℓ₊₁ ≤ 0); below λ_{L−1}:
+ * V = mean + A(λ)/A(λ_{L−1}) (V_{L−1} − mean). */
+inline float3 gamma_lookup_plan(__global const float4 *data, __global const int *off,
+                                __global const int *res, int nlev, float3 mean,
+                                __global const float4 *raw, int raw_n, float3 p,
+                                const GammaPlan *g) {
+    float s, t;
+    int face = cube_coords(p, &s, &t);
+    float3 ma, mb;
+    if (g->kind == GL_RAW_ONLY) return cube_bilinear(raw, 0, raw_n, p) * g->s_lam;
+    if (g->kind == GL_BELOW) {
+        float3 vl = gamma_level(data, off[nlev - 1], res[nlev - 1], face, s, t, 0, &ma);
+        return (mean + g->w * (vl - mean)) * g->s_lam;
+    }
+    int l = g->l;
+    float3 va = gamma_level(data, off[l], res[l], face, s, t, 1, &ma);
+    if (g->kind == GL_TOP) return va * g->s_lam;
+    if (g->kind == GL_RAW)
+        return gamma_hermite(va, ma, cube_bilinear(raw, 0, raw_n, p), (float3)(g->mr), g);
+    float3 vb = gamma_level(data, off[l + 1], res[l + 1], face, s, t, 1, &mb);
+    return gamma_hermite(va, ma, vb, mb, g);
+}
+
 inline float3 gamma_lookup_acc(__global const float4 *data, __global const int *off,
                                __global const int *res, __global const float *lam, int nlev,
                                float log_ratio, float3 mean, __global const float4 *raw,
                                int raw_n, float3 p, float lambda) {
-    float s, t;
-    int face = cube_coords(p, &s, &t);
-    float3 mdummy;
-    if (lambda >= lam[0]) {
-        /* sharper than level 0: the Hermite of ln Γ_L in ln λ continues from level 0 (V_0, m_0)
-         * to the unfiltered map (pyramid/raw.exr, "cube6v_b1", face res N) at λ_r = 1.5 N²
-         * (bilinear reconstruction blurs by h²/6, h = 2/N), V = V_raw beyond; no raw level
-         * (raw_n = 0): V_0 */
-        float3 m0;
-        float3 v0 = gamma_level(data, off[0], res[0], face, s, t, 1, &m0);
-        float lam_r = 1.5f * (float)raw_n * (float)raw_n;
-        if (raw_n > 0 && lam_r > lam[0]) {
-            float3 vr = cube_bilinear(raw, 0, raw_n, p);
-            if (lambda >= lam_r) return vr * sg_integral_unit(lambda);
-            float tt = log(lambda / lam[0]) / log(lam_r / lam[0]);
-            float x2 = 2.0f * lam_r;
-            float mr = x2 / (exp(x2) - 1.0f) - 1.0f;          /* ∂ln S/∂ln λ at λ_r */
-            return gamma_hermite(v0, m0, lam[0], vr, (float3)(mr), lam_r, lambda, tt);
-        }
-        return v0 * sg_integral_unit(lambda);
-    }
-    if (lambda < lam[nlev - 1]) {
-        float w = mean_resultant(lambda) / mean_resultant(lam[nlev - 1]);
-        float3 vl = gamma_level(data, off[nlev - 1], res[nlev - 1], face, s, t, 0, &mdummy);
-        return (mean + w * (vl - mean)) * sg_integral_unit(lambda);
-    }
-    float x = log(lam[0] / lambda) / log_ratio;
-    int l = clamp((int)floor(x), 0, nlev - 2);
-    float tt = x - (float)l;
-    float la = lam[l], lb = lam[l + 1];
-    float3 ma, mb;
-    float3 va = gamma_level(data, off[l], res[l], face, s, t, 1, &ma);
-    float3 vb = gamma_level(data, off[l + 1], res[l + 1], face, s, t, 1, &mb);
-    return gamma_hermite(va, ma, la, vb, mb, lb, lambda, tt);
+    GammaPlan g = gamma_plan(lam, nlev, log_ratio, raw_n, lambda);
+    return gamma_lookup_plan(data, off, res, nlev, mean, raw, raw_n, p, &g);
 }
 
 #endif

@@ -125,6 +125,36 @@ inline float3 mf_diffuse(__global const float *m, float3 kd, float3 o, float3 i)
     return kd * MF_INV_PI;
 }
 
+/* mf_diffuse split as f_d(o, i) = colour(o) · s(i) for env_diffuse.h's lanes (same formulas):
+ * the colour, 0 returned where f_d ≡ 0 (kind 2, o below the horizon) ... */
+inline int mf_diffuse_colour(__global const float *m, float3 kd, float3 o, float3 *c) {
+    int kind = (int)m[MAT_DIFFUSE];
+    if (kind == 2 || o.z <= 0.0f) return 0;
+    if (kind == 1) {
+        float b = 1.0f - 0.5f * o.z, b5 = b * b * b * b * b;
+        *c = kd * (28.0f / (23.0f * 3.14159265358979f)) * (1.0f - mat3(m, MAT_F0)) * (1.0f - b5);
+    } else {
+        *c = kd * MF_INV_PI;
+    }
+    return 1;
+}
+/* ... and s(i) for 8 directions i (0 below the horizon). */
+inline float8 mf_diffuse_lane(__global const float *m, float3 o, float8 ix, float8 iy,
+                              float8 iz) {
+    int kind = (int)m[MAT_DIFFUSE];
+    float8 s = (float8)(1.0f);
+    if (kind == 1) {
+        float8 a = 1.0f - 0.5f * iz;
+        s = 1.0f - a * a * a * a * a;
+    } else if (kind == 3) {
+        float8 hx = o.x + ix, hy = o.y + iy, hz = o.z + iz;
+        float8 c = fabs(o.x * hx + o.y * hy + o.z * hz) * rsqrt(hx * hx + hy * hy + hz * hz);
+        float8 x = 1.0f - clamp(c, 0.0f, 1.0f), x2 = x * x;
+        s = 0.96f * (1.0f - x2 * x2 * x);
+    }
+    return iz > 0.0f ? s : (float8)(0.0f);
+}
+
 /* Exact NDF D(h) from the material's table (materials.tabulate_ndf, ndf_info = (offset, nt, np,
  * has)): rows t = √(1 − cos θ_h) ∈ [0, 1], columns φ ∈ [0, 2π). */
 inline float ndf_table(__global const float *tables, int4 info, float3 h) {

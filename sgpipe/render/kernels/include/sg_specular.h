@@ -24,7 +24,7 @@ inline float sg_clamped_cos_mean(float c, float lam, float *phi) {
     float mu_u = c * A;
     float sd = sqrt(fmax(c * c * (1.0f - 2.0f * b) + s2 * b - mu_u * mu_u, 0.0f)) + 1e-7f;
     float z = mu_u / sd;
-    *phi = 0.5f * erfc(-0.70710678f * z);
+    *phi = half_erfc(-0.70710678f * z);
     return mu_u * *phi + sd * 0.39894228f * exp(-0.5f * z * z);
 }
 
@@ -61,7 +61,8 @@ inline void spec_warp(SG g, float3 o, SG *sub, int exact_mass) {
     float3 ea = normalize(cross(w.p, ex));    /* in the plane of incidence, ⊥ p */
     float a = 1.7320508f * sig;
     if (exact_mass) a = fmin(a, 1.5707963f);
-    float ca = cos(a), sa = sin(a);
+    float2 sc = sincos_small(a);
+    float ca = sc.y, sa = sc.x;
     /* exact_mass (GGX materials with an energy table, MAT_WARPN): the sub-lobes carry the
      * warped lobe's integral ∫ G(h) |∂i/∂h| dh = 4 I(λ) E[max(0, o·h)] (I: the SG integral),
      * which is I(λ_x)·μ/(o·g) for a narrow lobe; with μ/(o·g), a broad lobe (rough GGX) gains
@@ -142,6 +143,14 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
     int na = asg_count(lobes, lobe0, nsg);
 #endif
     int nl = na > 0 ? 0 : min(nsg, MAX_NDF_LOBES);
+    /* do the lights reach the sub-lobes at all? (a sharp light with the NDF table is the
+     * caller's, exactly): once per pixel rather than per sub-lobe */
+    int lobe_lights = 0;
+    for (int l = 0; l < n_lights && !lobe_lights; ++l)
+        lobe_lights = !ndf_has || light_sg(lights[2 * l], lights[2 * l + 1], x).lam < SHARP_LIGHT;
+    if (!env && !lobe_lights) return rs;
+    GammaPlan gp;                  /* Γ_L's plan for the sharpness gp_lam */
+    float gp_lam = -1.0f;
     for (int j = 0; j < nl + na; ++j) {
         SG sub[SPEC_SUBLOBES];
         ASGPlan plan;
@@ -207,14 +216,18 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
                 }
 #endif
                 float3 pw = normalize(to_world(sv.p, T, B, N));
-                renv += sv.mu * env_scale * (gamma_lookup_acc(pyr, pyr_off, pyr_res, pyr_lam,
-                                                            pyr_n, pyr_log_ratio, env_mean.xyz,
-                                                            pyr_raw, raw_n, pw, sv.lam)
+                if (sv.lam != gp_lam) {     /* unclipped sub-lobes share their λ */
+                    gp = gamma_plan(pyr_lam, pyr_n, pyr_log_ratio, raw_n, sv.lam);
+                    gp_lam = sv.lam;
+                }
+                renv += sv.mu * env_scale * (gamma_lookup_plan(pyr, pyr_off, pyr_res, pyr_n,
+                                                             env_mean.xyz, pyr_raw, raw_n, pw,
+                                                             &gp)
                                            + (exact_pts ? (float3)(0.0f)
                                                         : asg_points(pyr_pts, n_pts, pw, sv.lam)));
             }
             /* Local lights (eq 43). */
-            for (int l = 0; l < n_lights; ++l) {
+            for (int l = 0; l < (lobe_lights ? n_lights : 0); ++l) {
                 SG Lw = light_sg(lights[2 * l], lights[2 * l + 1], x);
                 SG L = sg_make(to_local(Lw.p, T, B, N), Lw.lam, Lw.mu);
                 if (L.lam >= SHARP_LIGHT) {

@@ -148,7 +148,7 @@ typedef struct {
     float maxd;
     __global const float *basis;
     __global const float *mean;
-    float4 w[NV > 0 ? NV / 4 : 1];
+    ssdf_vec w[SSDF_NW];
 } Vis;
 
 inline void vis_init(Vis *v, int8 ob, float maxd, int tri, float2 bc,
@@ -162,10 +162,12 @@ inline void vis_init(Vis *v, int8 ob, float maxd, int tri, float2 bc,
         v->basis = ssdf_data + OBJ_BASIS(ob); v->mean = ssdf_data + OBJ_MEAN(ob);
         __global const int *f = vfaces + 3 * (OBJ_FACE0(ob) + tri);
         float w0 = 1.0f - bc.x - bc.y;
-        __global const float4 *c0 = (__global const float4 *)(coeffs + (OBJ_VERT0(ob) + f[0]) * NV);
-        __global const float4 *c1 = (__global const float4 *)(coeffs + (OBJ_VERT0(ob) + f[1]) * NV);
-        __global const float4 *c2 = (__global const float4 *)(coeffs + (OBJ_VERT0(ob) + f[2]) * NV);
-        for (int j = 0; j < NV / 4; ++j) v->w[j] = w0 * c0[j] + bc.x * c1[j] + bc.y * c2[j];
+        __global const float *c0 = coeffs + (OBJ_VERT0(ob) + f[0]) * NV;
+        __global const float *c1 = coeffs + (OBJ_VERT0(ob) + f[1]) * NV;
+        __global const float *c2 = coeffs + (OBJ_VERT0(ob) + f[2]) * NV;
+        for (int j = 0; j < SSDF_NW; ++j)
+            v->w[j] = w0 * ssdf_vload(j, c0) + bc.x * ssdf_vload(j, c1)
+                      + bc.y * ssdf_vload(j, c2);
     }
 #endif
 }
@@ -331,12 +333,19 @@ inline float3 sg_light_diffuse(SG L, SG cosg, float4 qi, const Vis *vis, float3 
     return sg_dot_visibility(g, vis_theta(vis, g.p));
 }
 
+#include "env_diffuse.h"
+
 /* Wang09 eq 39 with the environment's SG light fit, as one sum: Σ_k f_d · (C* ⊗ L*_k) · V^d
  * (sharp lobes: see SHARP_LIGHT). Used by sg, and by gmm and fis for their diffuse term (as
- * Colbert & Křivánek use an irradiance map). */
+ * Colbert & Křivánek use an irradiance map). Eight lobes at a time (env_diffuse.h); under
+ * ENV_DIFFUSE_PER_LOBE one lobe at a time through sg_light_diffuse, the form the lanes are
+ * tested against. */
 inline float3 diffuse_env_sg(__global const float *m, float3 kd, float3 op, float4 q, float4 qi,
                              float3 T, float3 B, float3 N, __global const float4 *env_sg,
                              int n_env_sg, float env_scale, const Vis *vis) {
+#ifndef ENV_DIFFUSE_PER_LOBE
+    return diffuse_env_sg8(m, kd, op, q, qi, T, B, N, env_sg, n_env_sg, env_scale, vis);
+#else
     SG cosg = sg_clamped_cosine(quat_rotate(q, (float3)(0.0f, 0.0f, 1.0f)));
     float3 acc = (float3)(0.0f);
     for (int k = 0; k < n_env_sg; ++k) {
@@ -347,6 +356,7 @@ inline float3 diffuse_env_sg(__global const float *m, float3 kd, float3 op, floa
         acc += mf_diffuse(m, kd, op, fdir) * E;
     }
     return acc;
+#endif
 }
 
 #endif

@@ -11,21 +11,29 @@
 #define SSDF_PI_4 0.785398163397448f
 #define SSDF_PI_2 1.5707963267949f
 
-/* Shirley–Chiu disk → square, the inverse of core.sphere._square_to_disk. */
+/* atan t for |t| ≤ 1 (Cephes atanf: one reduction at tan π/8, then a degree-9 odd polynomial;
+ * relative error ≤ 2e-7): the library atan2 costs ~65 cycles a call on the CPU device, and
+ * the SSDF decodes a dozen directions per pixel. */
+inline float ssdf_atan_unit(float t) {
+    float at = fabs(t);
+    int big = at > 0.41421356f;
+    float x = big ? (at - 1.0f) / (at + 1.0f) : at;
+    float z = x * x;
+    float y = (((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z
+               - 3.33329491539e-1f) * z * x + x;
+    return copysign(y + (big ? SSDF_PI_4 : 0.0f), t);
+}
+
+/* Shirley–Chiu disk → square, the inverse of core.sphere._square_to_disk: on the major axis's
+ * side (|x| ≥ |y|: a = s, b = s φ/(π/4), φ = atan(y/x); else b = s, a = s(π/2 − φ)/(π/4),
+ * π/2 − φ = atan(x/y)), s = ±r with the major coordinate's sign. */
 inline float2 disk_to_square(float x, float y) {
     float r = sqrt(x * x + y * y);
-    float a, b;
-    if (fabs(x) >= fabs(y)) {
-        float sx = x >= 0.0f ? 1.0f : -1.0f;
-        float s = sx * r;
-        float phi = atan2(sx * y, sx * x);
-        a = s; b = s * phi / SSDF_PI_4;
-    } else {
-        float sy = y >= 0.0f ? 1.0f : -1.0f;
-        float s = sy * r;
-        float phi = atan2(sy * y, sy * x);
-        a = s * (SSDF_PI_2 - phi) / SSDF_PI_4; b = s;
-    }
+    int major_x = fabs(x) >= fabs(y);
+    float num = major_x ? y : x, den = major_x ? x : y;
+    float s = den >= 0.0f ? r : -r;
+    float pa = s * ssdf_atan_unit(den != 0.0f ? num / den : 0.0f) * (1.0f / SSDF_PI_4);
+    float a = major_x ? s : pa, b = major_x ? pa : s;
     return (float2)(0.5f * (a + 1.0f), 0.5f * (b + 1.0f));
 }
 
@@ -33,33 +41,60 @@ inline float2 disk_to_square(float x, float y) {
  * area-preserving map z = 1 − r² (core.sphere.hemisphere_to_concentric_square). */
 inline float2 hemisphere_to_square(float3 d) {
     float z = clamp(d.z, 0.0f, 1.0f);
-    float r = sqrt(1.0f - z);
     float rho = sqrt(d.x * d.x + d.y * d.y);
-    float sc = rho > 0.0f ? r / rho : 0.0f;
+    /* r/ρ with r = √(1 − z); near the pole as 1/√(1 + z) (1 − z = ρ²/(1 + z) for unit d):
+     * 1 − z in float32 keeps few digits there, and the map's r amplifies them (√ of an ulp) */
+    float sc = rho > 0.0f ? (z > 0.5f ? rsqrt(1.0f + z) : sqrt(1.0f - z) / rho) : 0.0f;
     return disk_to_square(d.x * sc, d.y * sc);
 }
 
+/* The PCA terms are read and summed in vectors of SSDF_VW floats, the widest of 16, 8, 4 that
+ * divides NV (NV is a multiple of 4, zero-padded terms): a 48-term decode is then 3 AVX-512
+ * multiply-adds per tap instead of 12 SSE ones; `ssdf_vec` is a pixel's coefficient vector
+ * chunk (shading.h Vis). */
+#if NV > 0 && NV % 16 == 0
+#define SSDF_VW 16
+typedef float16 ssdf_vec;
+#define ssdf_vload vload16
+inline float ssdf_hsum(float16 a) {
+    float8 b = a.lo + a.hi;
+    float4 c = b.lo + b.hi;
+    return c.x + c.y + c.z + c.w;
+}
+#elif NV > 0 && NV % 8 == 0
+#define SSDF_VW 8
+typedef float8 ssdf_vec;
+#define ssdf_vload vload8
+inline float ssdf_hsum(float8 a) { float4 c = a.lo + a.hi; return c.x + c.y + c.z + c.w; }
+#else
+#define SSDF_VW 4
+typedef float4 ssdf_vec;
+#define ssdf_vload vload4
+inline float ssdf_hsum(float4 c) { return c.x + c.y + c.z + c.w; }
+#endif
+#define SSDF_NW (NV > 0 ? NV / SSDF_VW : 1)
+
 #if NV > 0
-/* Bilinear reconstruction of Σ_j 𝕍_j(u, v) w_j + mean(u, v) (Wang09 eq 24), edge-clamped.
- * NV is a multiple of 4 (zero-padded terms): one tap reads NV/4 float4. */
+/* Bilinear reconstruction of Σ_j 𝕍_j(u, v) w_j + mean(u, v) (Wang09 eq 24), edge-clamped:
+ * one tap reads NV consecutive floats as NV/SSDF_VW vectors. */
 inline float ssdf_decode_square(__global const float *basis, __global const float *mean, int res,
-                                const float4 *w, float2 uv) {
+                                const ssdf_vec *w, float2 uv) {
     float x = uv.x * (float)res - 0.5f, y = uv.y * (float)res - 0.5f;
     float x0f = floor(x), y0f = floor(y);
     float fx = x - x0f, fy = y - y0f;
     int x0 = clamp((int)x0f, 0, res - 1), x1 = clamp((int)x0f + 1, 0, res - 1);
     int y0 = clamp((int)y0f, 0, res - 1), y1 = clamp((int)y0f + 1, 0, res - 1);
     int t00 = y0 * res + x0, t10 = y0 * res + x1, t01 = y1 * res + x0, t11 = y1 * res + x1;
-    float w00 = (1.0f - fx) * (1.0f - fy), w10 = fx * (1.0f - fy), w01 = (1.0f - fx) * fy, w11 = fx * fy;
-    __global const float4 *b00 = (__global const float4 *)(basis + t00 * NV);
-    __global const float4 *b10 = (__global const float4 *)(basis + t10 * NV);
-    __global const float4 *b01 = (__global const float4 *)(basis + t01 * NV);
-    __global const float4 *b11 = (__global const float4 *)(basis + t11 * NV);
-    float4 acc4 = (float4)(0.0f);
-    for (int j = 0; j < NV / 4; ++j)
-        acc4 += w[j] * (w00 * b00[j] + w10 * b10[j] + w01 * b01[j] + w11 * b11[j]);
-    float acc = w00 * mean[t00] + w10 * mean[t10] + w01 * mean[t01] + w11 * mean[t11];
-    return acc + acc4.x + acc4.y + acc4.z + acc4.w;
+    float w00 = (1.0f - fx) * (1.0f - fy), w10 = fx * (1.0f - fy), w01 = (1.0f - fx) * fy;
+    float w11 = fx * fy;
+    __global const float *b00 = basis + t00 * NV, *b10 = basis + t10 * NV;
+    __global const float *b01 = basis + t01 * NV, *b11 = basis + t11 * NV;
+    ssdf_vec acc = (ssdf_vec)(0.0f);
+    for (int j = 0; j < SSDF_NW; ++j)
+        acc += w[j] * (w00 * ssdf_vload(j, b00) + w10 * ssdf_vload(j, b10)
+                       + w01 * ssdf_vload(j, b01) + w11 * ssdf_vload(j, b11));
+    float m = w00 * mean[t00] + w10 * mean[t10] + w01 * mean[t01] + w11 * mean[t11];
+    return m + ssdf_hsum(acc);
 }
 #endif
 
@@ -67,7 +102,7 @@ inline float ssdf_decode_square(__global const float *basis, __global const floa
  * surface's own tangent plane is the only occluder: θ_d = asin(d.z). Below the horizon
  * (β = −asin d.z) the nearest boundary is at least β away: θ_d ≈ min(θ_d(horizon), 0) − β. */
 inline float ssdf_theta(int has_ssdf, __global const float *basis, __global const float *mean,
-                        int res, const float4 *w, float3 d) {
+                        int res, const ssdf_vec *w, float3 d) {
     float z = clamp(d.z, -1.0f, 1.0f);
 #if NV > 0
     if (has_ssdf) {
@@ -90,7 +125,7 @@ inline float ssdf_theta(int has_ssdf, __global const float *basis, __global cons
 /* (f̂_h, λ·f_h) where f_h = min(f̂_h f_h(π/2, λ), ∫G) (both smooth and bounded in ln λ). */
 inline float2 fh_pair_scaled(float theta_d, float lam) {
     if (lam >= FH_TAB_LAMMAX) {
-        float p = 0.5f * erfc(-theta_d * sqrt(lam) * 0.70710678f);
+        float p = half_erfc(-theta_d * sqrt(lam) * 0.70710678f);
         return (float2)(p, 6.28318531f * p);
     }
     float x = (log(fmax(lam, FH_TAB_LAMMIN)) - FH_TAB_L0) / (FH_TAB_L1 - FH_TAB_L0) * (float)(FH_TAB_NL - 1);
