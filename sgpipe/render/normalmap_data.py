@@ -41,7 +41,7 @@ import numpy as np
 
 from sgpipe.errors import BadInput
 
-#: Material models the kernels shade (nm_shade.h NM_LAMBERT … NM_GLTF) → model code.
+#: Material models the kernels shade (nm_shade.h NM_LAMBERT … NM_MERL) → model code.
 BRDF_MODELS = {"lambert": 0, "blinn_phong": 1, "beckmann": 2, "cook_torrance": 3, "ggx": 4,
                "gltf_pbr": 5, "merl": 6}
 BRDF_STRIDE = 36     # nm_shade.h NM_BRDF_STRIDE
@@ -384,6 +384,6 @@ def specular_sh_coeffs(model: str, param: float, lmax: int) -> np.ndarray:
 def attach_normalmaps(renderer, data: NormalMapData) -> None:
     """Upload `data` as the renderer's `nm_*` kernel parameters."""
     renderer.static.update(data.device_buffers(renderer.ctx))
-    # a measured material's lobes take each pixel's vMF in a per-pixel record copy
+    # GGX, glTF and measured lobes take each pixel's vMF in a per-pixel record copy
     renderer.record_scratch = bool(np.any(np.isin(data.brdf[:, 2], [BRDF_MODELS[k] for k in
                                                                     ("merl", "ggx", "gltf_pbr")])))
