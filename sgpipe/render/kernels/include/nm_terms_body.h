@@ -105,8 +105,13 @@
             m = rw_;
         }
         for (int j = 0; j < nlob; ++j) {
+            /* GGX's bare lobes (level 0's taps, the plain MIP's) and vmf's filtered ones (D
+             * amplitude −κ); the single-lobe methods' widened GGX lobes keep nm_spec_env's SG
+             * of their α′ below */
+            int bare = (model == NM_GGX || model == NM_GLTF) && ax[j].w == 1.0f && lp[j].w == s;
+            int convj = conv_ && (model == NM_MERL || ax[j].w < 0.0f || bare);
             if (conv_) rw_[MAT_NMKAPPA] = ax[j].w < 0.0f ? -ax[j].w : 0.0f;
-            if (reset_ || conv_) {
+            if (reset_ || convj) {
                 /* GGX and measured materials: the `sg` method's specular about the lobe's
                  * axis — the material's NDF lobes, each warped to three sub-lobes,
                  * energy-scaled — which holds GGX's tail where one SG of the peak-matched
@@ -128,7 +133,7 @@
                 float3 es[SHARP_CACHE];
                 /* sg reads Fresnel from the record: a glTF lobe's ks (its F0) is the record's */
                 float3 bks = model == NM_GLTF ? mat3(m, MAT_KS) : lks[j];
-                float cr_ = conv_ && ax[j].w < 0.0f
+                float cr_ = convj && ax[j].w < 0.0f
                             ? nm_lobe_albedo_ratio(m, tables, dot(ax[j].xyz, o), -ax[j].w) : 1.0f;
                 acc += cr_ * lp[j].x
                        * sg_lobes_specular(m, lobes, tables, bks, op, q, qi, T, B, N, x, &vis, 1,
