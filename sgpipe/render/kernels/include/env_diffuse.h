@@ -22,9 +22,7 @@ inline float8 ssdf_atan_unit8(float8 t) {
     int8 big = at > 0.41421356f;
     float8 x = big ? (at - 1.0f) / (at + 1.0f) : at;
     float8 z = x * x;
-    float8 y = (((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z
-                - 3.33329491539e-1f) * z * x + x;
-    return copysign(y + (big ? (float8)(SSDF_PI_4) : (float8)(0.0f)), t);
+    return copysign(SSDF_ATAN_POLY(x, z) + (big ? (float8)(SSDF_PI_4) : (float8)(0.0f)), t);
 }
 
 /* ssdf.h hemisphere_to_square (and disk_to_square) per lane → (u, v). */

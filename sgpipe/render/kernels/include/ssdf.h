@@ -14,14 +14,16 @@
 /* atan t for |t| ≤ 1 (Cephes atanf: one reduction at tan π/8, then a degree-9 odd polynomial;
  * relative error ≤ 2e-7): the library atan2 costs ~65 cycles a call on the CPU device, and
  * the SSDF decodes a dozen directions per pixel. */
+#define SSDF_ATAN_POLY(x, z) \
+    ((((8.05374449538e-2f * (z) - 1.38776856032e-1f) * (z) + 1.99777106478e-1f) * (z) \
+      - 3.33329491539e-1f) * (z) * (x) + (x))
+
 inline float ssdf_atan_unit(float t) {
     float at = fabs(t);
     int big = at > 0.41421356f;
     float x = big ? (at - 1.0f) / (at + 1.0f) : at;
     float z = x * x;
-    float y = (((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z
-               - 3.33329491539e-1f) * z * x + x;
-    return copysign(y + (big ? SSDF_PI_4 : 0.0f), t);
+    return copysign(SSDF_ATAN_POLY(x, z) + (big ? SSDF_PI_4 : 0.0f), t);
 }
 
 /* Shirley–Chiu disk → square, the inverse of core.sphere._square_to_disk: on the major axis's
