@@ -241,6 +241,7 @@ def main(argv=None) -> int:
                     help="ball, smooth, plane (minified) and uniform (the control spheres)")
     ap.add_argument("--minifications", nargs="+", type=int, default=list(MINIFICATIONS))
     a = ap.parse_args(argv)
+    a.out = a.out.resolve()     # the configs name their glTF files by absolute path
     a.out.mkdir(parents=True, exist_ok=True)
     rows = []
     jobs = [(s, k, None) for s in a.subjects if s != "uniform" for k in a.minifications]
