@@ -45,7 +45,7 @@ class GltfFactors:
     anisotropy: float = 0.0
     base_texture: int = -1
     metal_rough_texture: int = -1
-    linear: bool = False    # the textures hold (kd, roughness) and (F0, 0): linear_parameters
+    linear: bool = False    # the textures hold (kd, roughness) and (F0, m): linear_parameters
     #: KHR_materials_anisotropy's texture: RG its direction in the tangent frame (2c − 1, from
     #: t towards the handed bitangent, then turned by the rotation), B × the strength
     anisotropy_texture: int = -1

@@ -60,7 +60,7 @@ class MaterialSlot(IntEnum):
     SVA1 = 44         # largest α of the grid
     SVFRAC = 45       # a pixel's record: weight of the next grid entry's lobes (0: none)
     SV = 46           # a pixel's record: 1 = per-pixel GGX (exact D analytic, not the table)
-    SVLIN = 47        # 1: BCTEX holds (kd, ln roughness) and MRTEX (F0, 0) per texel, the
+    SVLIN = 47        # 1: BCTEX holds (kd, ln roughness) and MRTEX (F0, m) per texel, the
                       # BRDF's linear parameters (filtered as they enter it); 0: the glTF maps
     ETAB = 48         # offset of the material's energy table (render.energy; −1: none)
     ETGRID = 49       # offset of its roughness grid's energy table (views × entries; −1: none)

@@ -172,12 +172,14 @@ def _gltf_factors(found, textures: Textures):
 
 
 def linear_parameters(g, base, mr):
-    """Per texel the glTF BRDF's linear parameters, ((kd, ln roughness) (H, W, 4), (F0, 0)),
-    with the texture whose grid they share, or None where the two textures' images, wraps or
-    transforms differ. The BRDF is linear in kd = (1 − m)c and F0 = lerp(0.04, c, m) (for a
-    given roughness), so a footprint's average of these is the average of the BRDF, where
-    averages of c and m form products that differ from it wherever colour and metalness change
-    together (filtering the maps of a metal band on a painted tile)."""
+    """Per texel the glTF BRDF's linear parameters, ((kd, ln roughness) (H, W, 4), (F0,
+    metallic)), with the texture whose grid they share, or None where the two textures'
+    images, wraps or transforms differ. The BRDF is linear in kd = (1 − m)c and F0 = lerp(0.04,
+    c, m) (for a given roughness), so a footprint's average of these is the average of the
+    BRDF, where averages of c and m form products that differ from it wherever colour and
+    metalness change together (filtering the maps of a metal band on a painted tile). The
+    metallic channel lets the kernels recover each texel's c and m where they read a point
+    (gltf_record.h gltf_point_params: the finest level, as the reference reads it)."""
     from sgpipe.brdf.base import GLTF_DIELECTRIC_F0
     from sgpipe.brdf.models import GLTF_MIN_ROUGHNESS
     if base is not None and mr is not None and (
@@ -201,8 +203,7 @@ def linear_parameters(g, base, mr):
     # a sharp and a broad lobe keeps the sharp one's highlight)
     log_r = np.log(np.maximum(np.clip(rough, 0.0, 1.0), GLTF_MIN_ROUGHNESS))
     a = np.concatenate([(1.0 - metal) * c, log_r[..., None]], -1)
-    b = np.concatenate([(1.0 - metal) * GLTF_DIELECTRIC_F0 + metal * c, np.zeros((h, w, 1))],
-                       -1)
+    b = np.concatenate([(1.0 - metal) * GLTF_DIELECTRIC_F0 + metal * c, metal], -1)
     return (a, b), tex
 
 

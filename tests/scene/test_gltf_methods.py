@@ -191,3 +191,67 @@ def test_linear_parameters_per_texel():
     np.testing.assert_allclose(a[..., :3], (1 - metal) * g.base_color)
     assert linear_parameters(g, GltfTexture(c), GltfTexture(mr, (REPEAT, CLAMP))) is None
     assert linear_parameters(g, GltfTexture(c), GltfTexture(mr[:4])) is None
+
+
+def test_finest_level_reads_each_point_as_the_reference():
+    """A textured material's parameters (gltf_filtered_params) over a footprint at the finest
+    level are the reference's at each tap (GltfSurface.params: base colour, metallic and
+    roughness mixed bilinearly, then kd = (1 − m)c, F0 = lerp(0.04, c, m)), the taps' kd and F0
+    averaged and their roughness' geometric mean; coarser footprints read the linear
+    parameters' MIPs. Between a metal and a dielectric texel the bilinear mix of kd and F0
+    themselves differs from the point's by > 0.05: the test tells the two readings apart."""
+    from sg_testlib import run_kernel
+    from sgpipe.io.gltf_textures import REPEAT, GltfTexture
+    from sgpipe.reference.surface import GltfSurface
+    from sgpipe.render.materials import GltfFactors
+    from sgpipe.render.records import MAT_STRIDE, MaterialSlot as S
+    from sgpipe.render.setup import linear_parameters
+    rng = np.random.default_rng(8)
+    c = rng.uniform(0.05, 1.0, (16, 32, 3))
+    mr = np.stack([np.zeros((16, 32)), rng.uniform(0.1, 1.0, (16, 32)),
+                   (rng.random((16, 32)) < 0.5).astype(float)], -1)     # metal or not
+    g = GltfFactors(np.array([0.9, 1.0, 0.8]), 1.0, 0.9)
+    (a, b), _ = linear_parameters(g, GltfTexture(c), GltfTexture(mr))
+    t = Textures()
+    for img in (a, b):
+        t.add(img, mip=True, wrap=(REPEAT, REPEAT), matrix=None)
+    texels, info, aff = t.pack()
+    mat = np.zeros(MAT_STRIDE, np.float32)
+    mat[S.BASE:S.BASE + 3], mat[S.METAL], mat[S.ROUGH] = g.base_color, 1.0, 0.9
+    mat[S.BCTEX], mat[S.MRTEX], mat[S.SVLIN] = 0, 1, 1
+    n = 400
+    uv = rng.uniform(-0.5, 1.5, (n, 2))
+
+    def kernel(duv):
+        kd, f0 = run_kernel("t_gltf_params", n, [mat, texels, info, aff.reshape(-1, 4),
+                                                 uv.astype(np.float32),
+                                                 np.asarray(duv, np.float32)],
+                            [((n, 4), np.float32), ((n, 4), np.float32)])
+        return kd[:, :3], f0[:, :3], kd[:, 3]
+
+    def point(q):
+        """The reference's kd, F0 and roughness at uv q."""
+        p = GltfSurface(g.base_color, 1.0, 0.9, GltfTexture(c), GltfTexture(mr)).params(q)
+        m = p[:, 3:4]
+        return (1 - m) * p[:, :3], 0.04 * (1 - m) + m * p[:, :3], p[:, 4]
+    kd, f0, r = kernel(np.zeros((n, 4)))
+    want = point(uv)
+    for got, w in zip((kd, f0, r), want):
+        np.testing.assert_allclose(got, w, atol=2e-5)
+    mixed = GltfTexture(a).bilinear(uv)[:, :3]
+    assert np.abs(mixed - want[0]).max() > 0.05
+    # a footprint of about 2 × 1.5 texels: 2 × 2 taps at level 0, each the point's parameters
+    duv = np.tile([2.0 / 32, 0.0, 0.0, 1.5 / 16], (n, 1))
+    kd, f0, r = kernel(duv)
+    taps = [point(uv + i * duv[:, :2] + j * duv[:, 2:]) for i in (-0.25, 0.25)
+            for j in (-0.25, 0.25)]
+    np.testing.assert_allclose(kd, np.mean([tp[0] for tp in taps], 0), atol=2e-5)
+    np.testing.assert_allclose(f0, np.mean([tp[1] for tp in taps], 0), atol=2e-5)
+    np.testing.assert_allclose(r, np.exp(np.mean([np.log(tp[2]) for tp in taps], 0)),
+                               rtol=2e-5)
+    # 12 texels wide: level 1 of the linear parameters' MIPs, as tex_filtered reads them
+    duv = np.tile([12.0 / 32, 0.0, 0.0, 1.0 / 16], (n, 1))
+    kd, f0, r = kernel(duv)
+    for got, img in ((kd, a[..., :3]), (f0, b[..., :3]), (np.log(r), a[..., [3, 3, 3]])):
+        want = _box_taps_np(GltfTexture(img), mip_chain(img), uv, duv)
+        np.testing.assert_allclose(got, want if got.ndim == 2 else want[:, 0], atol=2e-5)

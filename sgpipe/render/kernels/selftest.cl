@@ -85,3 +85,16 @@ __kernel void t_tex(__global const float4 *texels, __global const int4 *texinfo,
     int i = get_global_id(0);
     out[i] = tex_filtered(texels, texinfo[k], texaff, k, uv[i], duv[i]);
 }
+
+/* A textured gltf_pbr material's kd, F0 and roughness (gltf_record.h gltf_filtered_params) at
+ * OBJ uv with footprint duv, from its record mat. */
+__kernel void t_gltf_params(__global const float *mat, __global const float4 *texels,
+                            __global const int4 *texinfo, __global const float4 *texaff,
+                            __global const float2 *uv, __global const float4 *duv,
+                            __global float4 *kd, __global float4 *f0) {
+    int i = get_global_id(0);
+    float3 k, f;
+    float r = gltf_filtered_params(mat, texels, texinfo, texaff, uv[i], duv[i], &k, &f);
+    kd[i] = (float4)(k, r);
+    f0[i] = (float4)(f, 0.0f);
+}

@@ -23,6 +23,38 @@ inline void gltf_record_alpha(__global const float *m, __global float *r, float 
     }
 }
 
+/* A point (s, t) of a textured gltf_pbr material's linear-parameter textures ia = (kd, ln r),
+ * ib = (F0, m) per texel (MAT_SVLIN, level 0) read as the reference reads the glTF textures
+ * (GltfSurface.params): each of the 2 × 2 texels' base colour c, metallic m and roughness r
+ * mixed bilinearly, then kd = (1 − m)c, F0 = lerp(0.04, c, m) of the mix (*kd, *f0); ln r
+ * returned. The bilinear mix of kd and F0 themselves differs where metalness changes between
+ * texels: half-metal texels at a metal band's edge keep half their colour as diffuse, which
+ * the mix of a dielectric's and a metal's kd (the metal's 0) halves again. */
+inline float gltf_point_params(__global const float4 *texels, int4 ia, int4 ib, float2 st,
+                               float3 *kd, float3 *f0) {
+    int4 q;
+    float2 f = tex_corners(ia, ia.y, ia.z, st, &q);
+    int w = ia.y;
+    int idx[4] = {q.z * w + q.x, q.z * w + q.y, q.w * w + q.x, q.w * w + q.y};
+    float wt[4] = {(1.0f - f.x) * (1.0f - f.y), f.x * (1.0f - f.y), (1.0f - f.x) * f.y,
+                   f.x * f.y};
+    float3 c = (float3)(0.0f);
+    float metal = 0.0f, r = 0.0f;
+    for (int k = 0; k < 4; ++k) {
+        float4 a = texels[ia.x + idx[k]], b = texels[ib.x + idx[k]];
+        /* c from whichever of kd = (1 − m)c and F0 − 0.04(1 − m) = mc divides by more */
+        float3 ck = b.w <= 0.5f ? a.xyz / (1.0f - b.w)
+                                : (b.xyz - 0.04f * (1.0f - b.w)) / b.w;
+        c += wt[k] * ck;
+        metal += wt[k] * b.w;
+        r += wt[k] * exp(a.w);
+    }
+    metal = clamp(metal, 0.0f, 1.0f);
+    *kd = (1.0f - metal) * c;
+    *f0 = mix((float3)(0.04f), c, metal);
+    return log(r);
+}
+
 /* A textured gltf_pbr material's kd, F0 (*kd, *f0) and roughness (returned, unclamped) over
  * the footprint duv about uv (gltf_pixel_record's filtering) from its factor record m. */
 inline float gltf_filtered_params(__global const float *m, __global const float4 *texels,
@@ -32,7 +64,27 @@ inline float gltf_filtered_params(__global const float *m, __global const float4
     float metal = m[MAT_METAL], rough = m[MAT_ROUGH];
     int bt = (int)m[MAT_BCTEX], mt = (int)m[MAT_MRTEX];
     float3 kd, f0;
-    if (m[MAT_SVLIN] > 0.5f) {        /* (kd, ln r) and (F0, 0) per texel, factors applied */
+    float2 st, dx, dy;
+    int nx, ny;
+    if (m[MAT_SVLIN] > 0.5f
+        && tex_grid(texinfo[bt], texaff, bt, uv, duv, &st, &dx, &dy, &nx, &ny) == 0) {
+        /* the finest level: each tap the product form at its point, as the reference reads */
+        float lr = 0.0f;
+        kd = f0 = (float3)(0.0f);
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i) {
+                float3 k1, f1;
+                lr += gltf_point_params(texels, texinfo[bt], texinfo[mt],
+                                        st + (((float)i + 0.5f) / (float)nx - 0.5f) * dx
+                                           + (((float)j + 0.5f) / (float)ny - 0.5f) * dy,
+                                        &k1, &f1);
+                kd += k1;
+                f0 += f1;
+            }
+        kd /= (float)(nx * ny);
+        f0 /= (float)(nx * ny);
+        rough = exp(lr / (float)(nx * ny));     /* the taps' geometric mean, as the MIPs' */
+    } else if (m[MAT_SVLIN] > 0.5f) {  /* (kd, ln r) and (F0, m) per texel, factors applied */
         float4 a = tex_filtered(texels, texinfo[bt], texaff, bt, uv, duv);
         kd = a.xyz;
         rough = exp(a.w);              /* the footprint's geometric mean roughness */

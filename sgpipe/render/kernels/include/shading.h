@@ -33,34 +33,43 @@ inline int tex_wrap(int i, int n, int mode) {
 /* Bilinear between texel centres of MIP level `lv` (render.textures: level l is
  * max(1, w >> l) × max(1, h >> l), stored after level l − 1, rows top to bottom) at glTF
  * texture coordinates (s, t) (t = 0 the top row), the record's wrap modes. */
-inline float4 tex_level(__global const float4 *texels, int4 info, int lv, float2 st) {
-    int w = info.y, h = info.z, off = info.x;
-    for (int l = 0; l < lv; ++l) { off += w * h; w = max(w >> 1, 1); h = max(h >> 1, 1); }
+/* The 2 × 2 texels a bilinear read at glTF texture coordinates (s, t) mixes on a w × h level
+ * with the record's wrap modes: their columns x0, x1 and rows y0, y1 in *q, the fractions
+ * (fx, fy) returned. */
+inline float2 tex_corners(int4 info, int w, int h, float2 st, int4 *q) {
     int ws = (info.w >> 8) & 3, wt = (info.w >> 10) & 3;
     float x = st.x * (float)w - 0.5f, y = st.y * (float)h - 0.5f;
     float x0f = floor(x), y0f = floor(y);
-    float fx = x - x0f, fy = y - y0f;
-    int x0 = tex_wrap((int)x0f, w, ws), x1 = tex_wrap((int)x0f + 1, w, ws);
-    int y0 = tex_wrap((int)y0f, h, wt), y1 = tex_wrap((int)y0f + 1, h, wt);
+    *q = (int4)(tex_wrap((int)x0f, w, ws), tex_wrap((int)x0f + 1, w, ws),
+                tex_wrap((int)y0f, h, wt), tex_wrap((int)y0f + 1, h, wt));
+    return (float2)(x - x0f, y - y0f);
+}
+
+inline float4 tex_level(__global const float4 *texels, int4 info, int lv, float2 st) {
+    int w = info.y, h = info.z, off = info.x;
+    for (int l = 0; l < lv; ++l) { off += w * h; w = max(w >> 1, 1); h = max(h >> 1, 1); }
+    int4 q;
+    float2 f = tex_corners(info, w, h, st, &q);
     __global const float4 *t = texels + off;
-    float4 a = mix(t[y0 * w + x0], t[y0 * w + x1], fx);
-    float4 b = mix(t[y1 * w + x0], t[y1 * w + x1], fx);
-    return mix(a, b, fy);
+    float4 a = mix(t[q.z * w + q.x], t[q.z * w + q.y], f.x);
+    float4 b = mix(t[q.w * w + q.x], t[q.w * w + q.y], f.x);
+    return mix(a, b, f.y);
 }
 
 /* Bilinear taps per footprint axis at most: a footprint longer than this many texels reads
  * the MIP level where it is not (tap spacing about one texel of that level). */
 #define TEX_BOX_TAPS 4
 
-/* A texture at OBJ uv (v = 0 the bottom row) averaged over the pixel's footprint: the glTF
- * texture transform (aff, rows of its 3×3 matrix on (s, t) = (u, 1 − v); aff[0].w = 0: none),
+/* The taps averaging a texture at OBJ uv (v = 0 the bottom row) over the pixel's footprint: the
+ * glTF texture transform (aff, rows of its 3×3 matrix on (s, t) = (u, 1 − v); aff[0].w = 0: none),
  * then the parallelogram the pixel's box covers, uv ± ½ (∂uv/∂x) ± ½ (∂uv/∂y) (duv = (∂u/∂x,
  * ∂v/∂x, ∂u/∂y, ∂v/∂y), scene.footprint), read as n_x × n_y bilinear taps at the centres of
  * an n_x × n_y grid over it — the reference's box pixel filter over the texture — at the
- * finest MIP level where neither side needs more than TEX_BOX_TAPS taps of one texel. A
- * footprint under a texel is one bilinear tap of level 0. */
-inline float4 tex_filtered(__global const float4 *texels, int4 info,
-                           __global const float4 *texaff, int k, float2 uv, float4 duv) {
+ * finest MIP level where neither side needs more than TEX_BOX_TAPS taps of one texel (the
+ * level returned; the centre and sides in (s, t) and the taps per side written). A footprint
+ * under a texel is one bilinear tap of level 0. */
+inline int tex_grid(int4 info, __global const float4 *texaff, int k, float2 uv, float4 duv,
+                    float2 *st_, float2 *dx_, float2 *dy_, int *nx_, int *ny_) {
     float2 st = (float2)(uv.x, 1.0f - uv.y);
     float2 dx = (float2)(duv.x, -duv.y), dy = (float2)(duv.z, -duv.w);
     float4 a0 = texaff[2 * k], a1 = texaff[2 * k + 1];
@@ -75,8 +84,18 @@ inline float4 tex_filtered(__global const float4 *texels, int4 info,
     float need = fmax(lx, ly) / (float)TEX_BOX_TAPS;
     int lv = need > 1.0f ? min((int)ceil(log2(need)), levels - 1) : 0;
     float scale = 1.0f / (float)(1 << lv);
-    int nx = clamp((int)ceil(lx * scale - 1e-3f), 1, TEX_BOX_TAPS);
-    int ny = clamp((int)ceil(ly * scale - 1e-3f), 1, TEX_BOX_TAPS);
+    *nx_ = clamp((int)ceil(lx * scale - 1e-3f), 1, TEX_BOX_TAPS);
+    *ny_ = clamp((int)ceil(ly * scale - 1e-3f), 1, TEX_BOX_TAPS);
+    *st_ = st; *dx_ = dx; *dy_ = dy;
+    return lv;
+}
+
+/* tex_grid's taps averaged: the texture over the footprint. */
+inline float4 tex_filtered(__global const float4 *texels, int4 info,
+                           __global const float4 *texaff, int k, float2 uv, float4 duv) {
+    float2 st, dx, dy;
+    int nx, ny;
+    int lv = tex_grid(info, texaff, k, uv, duv, &st, &dx, &dy, &nx, &ny);
     float4 c = (float4)(0.0f);
     for (int j = 0; j < ny; ++j) {
         float b = ((float)j + 0.5f) / (float)ny - 0.5f;
