@@ -128,6 +128,17 @@ def vmf_quadrature(brdf, mu, kappa, o, i, n_beta=160, n_phi=128) -> np.ndarray:
     return np.sum(val * (w * vmf_pdf(d[:, 2], kappa))[:, None], 0)
 
 
+def one_lobe_error(rend, brdf, mu, kappa, views, light, footprint, method="vmf"):
+    """Kernel `method` of `rend` (one lobe (μ, κ)) under a directional light, on a flat frame
+    of `views` and `footprint`, against ∫ vMF(n) ρ(o, i; n) (n·i) dn per view: (|error| over
+    each view's lobe peak (its mirror direction), the quadrature)."""
+    img = rend.shade(method, flat_frame(views, np.full((len(views), 2), 0.3), footprint))[:, 0]
+    ref = np.array([vmf_quadrature(brdf, mu, kappa, o, light)[0] for o in views])
+    peak = np.array([vmf_quadrature(brdf, mu, kappa, o, 2 * (o @ mu) * mu - o)[0]
+                     for o in views])
+    return np.abs(img - ref) / peak, ref
+
+
 def g1_beckmann(c, a):
     t = a * a * (1 - c * c) / (c * c)
     if t <= 0:
