@@ -110,8 +110,8 @@ inline float gltf_filtered_params(__global const float *m, __global const float4
  * kd = (1 − m) c, Schlick F0 = lerp(0.04, c, m) and roughness filtered over the footprint (ln r) —
  * read as such (MAT_SVLIN: textures of these per texel, render.setup.linear_parameters) or
  * formed from the filtered base colour c and metallic m (factor × texel) — then what the
- * uniform material's packer derives (brdf.models.gltf_pbr): α = max(roughness, 0.06)², α_t = lerp(α, 1, s²),
- * g_scale = 1/(4 α_t α); the NDF lobes interpolated from the roughness grid (ndf_sg_rough.npz:
+ * uniform material's packer derives (brdf.models.gltf_pbr): α = max(roughness, 0.06)²,
+ * α_t = lerp(α, 1, s²), g_scale = 1/(4 α_t α); the NDF lobes interpolated from the roughness grid (ndf_sg_rough.npz:
  * LOBE0 = the lower entry, SVFRAC the upper one's weight; ndf_lobe) and SV = 1: the exact D
  * analytic at the pixel's α (ndf_exact) instead of the material's table. */
 inline void gltf_pixel_record(__global const float *m, __global float *r,
