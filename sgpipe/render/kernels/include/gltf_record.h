@@ -27,9 +27,9 @@ inline void gltf_record_alpha(__global const float *m, __global float *r, float 
  * ib = (F0, m) per texel (MAT_SVLIN, level 0) read as the reference reads the glTF textures
  * (GltfSurface.params): each of the 2 × 2 texels' base colour c, metallic m and roughness r
  * mixed bilinearly, then kd = (1 − m)c, F0 = lerp(0.04, c, m) of the mix (*kd, *f0); ln r
- * returned. The bilinear mix of kd and F0 themselves differs where metalness changes between
- * texels: half-metal texels at a metal band's edge keep half their colour as diffuse, which
- * the mix of a dielectric's and a metal's kd (the metal's 0) halves again. */
+ * returned. The bilinear mix of kd and F0 themselves differs where metalness changes: half-way
+ * between a dielectric texel of colour c₁ and a metal one of c₂, m = ½ and kd = (c₁ + c₂)/4,
+ * where the mix of their kd is c₁/2 (a metal's kd is 0). */
 inline float gltf_point_params(__global const float4 *texels, int4 ia, int4 ib, float2 st,
                                float3 *kd, float3 *f0) {
     int4 q;
@@ -111,9 +111,10 @@ inline float gltf_filtered_params(__global const float *m, __global const float4
  * read as such (MAT_SVLIN: textures of these per texel, render.setup.linear_parameters) or
  * formed from the filtered base colour c and metallic m (factor × texel) — then what the
  * uniform material's packer derives (brdf.models.gltf_pbr): α = max(roughness, 0.06)²,
- * α_t = lerp(α, 1, s²), g_scale = 1/(4 α_t α); the NDF lobes interpolated from the roughness grid (ndf_sg_rough.npz:
- * LOBE0 = the lower entry, SVFRAC the upper one's weight; ndf_lobe) and SV = 1: the exact D
- * analytic at the pixel's α (ndf_exact) instead of the material's table. */
+ * α_t = lerp(α, 1, s²), g_scale = 1/(4 α_t α); the NDF lobes interpolated from the roughness
+ * grid (ndf_sg_rough.npz: LOBE0 = the lower entry, SVFRAC the upper one's weight; ndf_lobe)
+ * and SV = 1: the exact D analytic at the pixel's α (ndf_exact) instead of the material's
+ * table. */
 inline void gltf_pixel_record(__global const float *m, __global float *r,
                               __global const float4 *texels, __global const int4 *texinfo,
                               __global const float4 *texaff, float2 uv, float4 duv,

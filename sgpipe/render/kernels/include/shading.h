@@ -30,9 +30,6 @@ inline int tex_wrap(int i, int n, int mode) {
     return ((i % n) + n) % n;
 }
 
-/* Bilinear between texel centres of MIP level `lv` (render.textures: level l is
- * max(1, w >> l) × max(1, h >> l), stored after level l − 1, rows top to bottom) at glTF
- * texture coordinates (s, t) (t = 0 the top row), the record's wrap modes. */
 /* The 2 × 2 texels a bilinear read at glTF texture coordinates (s, t) mixes on a w × h level
  * with the record's wrap modes: their columns x0, x1 and rows y0, y1 in *q, the fractions
  * (fx, fy) returned. */
@@ -45,6 +42,9 @@ inline float2 tex_corners(int4 info, int w, int h, float2 st, int4 *q) {
     return (float2)(x - x0f, y - y0f);
 }
 
+/* Bilinear between texel centres of MIP level `lv` (render.textures: level l is
+ * max(1, w >> l) × max(1, h >> l), stored after level l − 1, rows top to bottom) at glTF
+ * texture coordinates (s, t) (t = 0 the top row), the record's wrap modes. */
 inline float4 tex_level(__global const float4 *texels, int4 info, int lv, float2 st) {
     int w = info.y, h = info.z, off = info.x;
     for (int l = 0; l < lv; ++l) { off += w * h; w = max(w >> 1, 1); h = max(h >> 1, 1); }
@@ -60,9 +60,9 @@ inline float4 tex_level(__global const float4 *texels, int4 info, int lv, float2
  * the MIP level where it is not (tap spacing about one texel of that level). */
 #define TEX_BOX_TAPS 4
 
-/* The taps averaging a texture at OBJ uv (v = 0 the bottom row) over the pixel's footprint: the
- * glTF texture transform (aff, rows of its 3×3 matrix on (s, t) = (u, 1 − v); aff[0].w = 0: none),
- * then the parallelogram the pixel's box covers, uv ± ½ (∂uv/∂x) ± ½ (∂uv/∂y) (duv = (∂u/∂x,
+/* The taps averaging a texture at OBJ uv (v = 0 the bottom row) over the pixel's footprint:
+ * the glTF texture transform (aff, rows of its 3×3 matrix on (s, t) = (u, 1 − v); aff[0].w =
+ * 0: none), then the parallelogram the pixel's box covers, uv ± ½ (∂uv/∂x) ± ½ (∂uv/∂y) (duv = (∂u/∂x,
  * ∂v/∂x, ∂u/∂y, ∂v/∂y), scene.footprint), read as n_x × n_y bilinear taps at the centres of
  * an n_x × n_y grid over it — the reference's box pixel filter over the texture — at the
  * finest MIP level where neither side needs more than TEX_BOX_TAPS taps of one texel (the
