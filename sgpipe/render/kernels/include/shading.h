@@ -62,8 +62,8 @@ inline float4 tex_level(__global const float4 *texels, int4 info, int lv, float2
 
 /* The taps averaging a texture at OBJ uv (v = 0 the bottom row) over the pixel's footprint:
  * the glTF texture transform (aff, rows of its 3×3 matrix on (s, t) = (u, 1 − v); aff[0].w =
- * 0: none), then the parallelogram the pixel's box covers, uv ± ½ (∂uv/∂x) ± ½ (∂uv/∂y) (duv = (∂u/∂x,
- * ∂v/∂x, ∂u/∂y, ∂v/∂y), scene.footprint), read as n_x × n_y bilinear taps at the centres of
+ * 0: none), then the parallelogram the pixel's box covers, uv ± ½ (∂uv/∂x) ± ½ (∂uv/∂y)
+ * (duv = (∂u/∂x, ∂v/∂x, ∂u/∂y, ∂v/∂y), scene.footprint), read as n_x × n_y bilinear taps at the centres of
  * an n_x × n_y grid over it — the reference's box pixel filter over the texture — at the
  * finest MIP level where neither side needs more than TEX_BOX_TAPS taps of one texel (the
  * level returned; the centre and sides in (s, t) and the taps per side written). A footprint
