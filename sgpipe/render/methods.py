@@ -157,8 +157,9 @@ WANG09_SWITCHES: dict[str, tuple[tuple[str, object], ...]] = {
     "sharp_lights": (("SHARP_LIGHT", 1e30),),
     # the lobes for the point set and sharp lights (sg: the exact BRDF from the NDF table)
     "exact_brdf": (("W09_NO_EXACT", 1),),
-    # the lobes' energy as they give it (sg: the environment's specular scaled per view to the
-    # exact directional albedo of GGX materials, render.energy)
+    # the lobes' energy as they give it (sg: each warped sub-lobe the lobe's exact warped
+    # mass, and the environment's specular scaled per view to the exact directional albedo of
+    # GGX materials, render.energy)
     "energy": (("SG_NO_ENERGY", 1),),
 }
 
