@@ -185,6 +185,7 @@ def test_linear_parameters_per_texel():
     np.testing.assert_allclose(a[..., :3], (1 - metal) * base)
     np.testing.assert_allclose(b[..., :3], 0.04 * (1 - metal) + metal * base)
     np.testing.assert_allclose(a[..., 3], np.log(np.maximum(rough, 0.06)))
+    np.testing.assert_allclose(b[..., 3], metal[..., 0])
     assert tex.image is c
     # only one texture: the other parameters are the factors
     (a, b), _ = linear_parameters(g, None, GltfTexture(mr))

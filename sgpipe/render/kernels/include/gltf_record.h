@@ -26,8 +26,8 @@ inline void gltf_record_alpha(__global const float *m, __global float *r, float 
 /* A point (s, t) of a textured gltf_pbr material's linear-parameter textures ia = (kd, ln r),
  * ib = (F0, m) per texel (MAT_SVLIN, level 0) read as the reference reads the glTF textures
  * (GltfSurface.params): each of the 2 × 2 texels' base colour c, metallic m and roughness r
- * mixed bilinearly, then kd = (1 − m)c, F0 = lerp(0.04, c, m) of the mix (*kd, *f0); ln r
- * returned. The bilinear mix of kd and F0 themselves differs where metalness changes: half-way
+ * mixed bilinearly (r as stored, floored at the BRDF's 0.06), then kd = (1 − m)c, F0 =
+ * lerp(0.04, c, m) of the mix (*kd, *f0); ln r returned. The bilinear mix of kd and F0 themselves differs where metalness changes: half-way
  * between a dielectric texel of colour c₁ and a metal one of c₂, m = ½ and kd = (c₁ + c₂)/4,
  * where the mix of their kd is c₁/2 (a metal's kd is 0). */
 inline float gltf_point_params(__global const float4 *texels, int4 ia, int4 ib, float2 st,
