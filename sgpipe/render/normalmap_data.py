@@ -384,6 +384,3 @@ def specular_sh_coeffs(model: str, param: float, lmax: int) -> np.ndarray:
 def attach_normalmaps(renderer, data: NormalMapData) -> None:
     """Upload `data` as the renderer's `nm_*` kernel parameters."""
     renderer.static.update(data.device_buffers(renderer.ctx))
-    # GGX, glTF and measured lobes take each pixel's vMF in a per-pixel record copy
-    renderer.record_scratch = bool(np.any(np.isin(data.brdf[:, 2], [BRDF_MODELS[k] for k in
-                                                                    ("merl", "ggx", "gltf_pbr")])))

@@ -16,7 +16,7 @@ ENERGY_VIEWS = 32
 ENERGY_COS_MIN = 0.01
 
 #: Floats per material record (kernels: `mats + material * MAT_STRIDE`).
-MAT_STRIDE = 62
+MAT_STRIDE = 61
 
 
 class MaterialSlot(IntEnum):
@@ -78,10 +78,6 @@ class MaterialSlot(IntEnum):
     GMR_N = 58        # entries (uniform in ln α from GMR_A0 to GMR_A1)
     GMR_A0 = 59       # α of the first entry
     GMR_A1 = 60       # α of the last entry
-    # The normal-map kernels' scratch copy of a measured material's record (nm_terms_body.h):
-    # ndf_lobe convolves each NDF lobe with vMF(κ) by λ′ = λκ/(λ + κ), its mass kept (Han07
-    # eq 21 for an SG); 0: none
-    NMKAPPA = 61
 
 
 # The packers index a record by these names (the `re` module's idiom for enum members).

@@ -127,9 +127,6 @@ class Renderer:
         self._kernels: dict[str, object] = {}
         # material textures with MIP chains: lookups filtered over each pixel's footprint
         self.textured = any(e.mip for e in (textures or Textures()).entries)
-        #: a normal-map method copies a measured material's record per pixel (its lobes'
-        #: vMF in MAT_NMKAPPA): `pxmat` per pixel (normalmap_data.attach_normalmaps sets it)
-        self.record_scratch = False
         self._upload(textures or Textures(), list(lights))
         # the normal-map and transport methods' buffers, empty until their data is attached
         from sgpipe.render.normalmap_data import NormalMapData
@@ -324,8 +321,7 @@ class Renderer:
         """Does a material take its parameters from textures per pixel (pixel_init writes
         each such pixel's record into the frame's `pxmat`)?"""
         r = self.materials.records
-        return self.record_scratch or bool(
-            np.any(r[:, [MaterialSlot.BCTEX, MaterialSlot.MRTEX, MaterialSlot.ANTEX]] >= 0))
+        return bool(np.any(r[:, [MaterialSlot.BCTEX, MaterialSlot.MRTEX, MaterialSlot.ANTEX]] >= 0))
 
     def shade(self, method: str, fr: Frame | dict, *, flags: int = 0, fis_samples: int = 40,
               gmm_interpolate: bool = True, mip_coverage: float = 0.9, seed: int = 0):

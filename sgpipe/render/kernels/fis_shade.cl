@@ -56,7 +56,7 @@ __kernel void fis_shade(FIS_SHADE_ARGS)
     float4 la[MAX_NDF_LOBES];     /* the pixel's lobes (axis, λ), read (interpolated) once */
     for (int j = 0; j < nl; ++j) {
         float4 L0, L1;
-        ndf_lobe(lobes, m, j, &L0, &L1);
+        ndf_lobe(lobes, m, j, 0.0f, &L0, &L1);
         la[j] = (float4)(normalize(L0.xyz), L0.w);
         lw[j] = L1.x * sg_integral_unit(L0.w);
         wsum += lw[j];

@@ -74,6 +74,6 @@ __kernel void sg_shade(SG_SHADE_ARGS)
                             !(flags & FLAG_NO_ENV_SPECULAR), exact_pts, ndf.w,
                             pyr, pyr_off, pyr_res, pyr_lam, pyr_n, pyr_log_ratio, env_mean,
                             pyr_raw, raw_n, pyr_pts, n_pts, env_scale, lights, n_lights,
-                            e_sharp);
+                            e_sharp, 0.0f);
     out[gid] = (float4)(rd + rs, 1.0f);
 }

@@ -181,7 +181,7 @@ __kernel void transport_shade(TRANSPORT_SHADE_ARGS)
                                             N, x, &open, 1, exact_pts, ndf.w, pyr, pyr_off,
                                             pyr_res, pyr_lam, pyr_n, pyr_log_ratio, env_mean,
                                             pyr_raw, raw_n, pyr_pts, n_pts, env_scale, lights,
-                                            0, none);
+                                            0, none, 0.0f);
             }
         }
         int env_diff = !(flags & FLAG_NO_ENV_DIFFUSE);

@@ -192,8 +192,8 @@ inline float ndf_exact(__global const float *m, __global const float *tables, in
 /* SG lobe j of a pixel's material, (axis, λ) and (μ, …) as in the lobe table; a textured
  * gltf_pbr pixel's lobes interpolated between two roughness-grid entries (ln λ and μ linear
  * in ln α with weight MAT_SVFRAC on the entry MAT_SVSTEP rows on: fit.ndf_sg_rough); then
- * convolved with vMF(MAT_NMKAPPA) when that slot is set (a normal-map lobe). */
-inline void ndf_lobe(__global const float4 *lobes, __global const float *m, int j,
+ * convolved with vMF(kc) where kc > 0 (a normal-map lobe's; 0: none). */
+inline void ndf_lobe(__global const float4 *lobes, __global const float *m, int j, float kc,
                      float4 *l0, float4 *l1) {
     int l = (int)m[MAT_LOBE0] + j;
     *l0 = lobes[2 * l];
@@ -205,7 +205,6 @@ inline void ndf_lobe(__global const float4 *lobes, __global const float *m, int 
         (*l0).w = exp(mix(log((*l0).w), log(b0.w), t));
         (*l1).x = mix((*l1).x, b1.x, t);
     }
-    float kc = m[MAT_NMKAPPA];
     if (kc > 0.0f) {          /* a normal-map lobe's vMF: λ′ = λκ/(λ + κ), mass kept */
         float lc = (*l0).w * kc / ((*l0).w + kc);
         (*l1).x *= lc / (*l0).w;

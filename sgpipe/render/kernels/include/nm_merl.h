@@ -24,7 +24,7 @@ inline float nm_merl_d(__global const float *m, __global const float4 *lobes, fl
     int nsg = min((int)m[MAT_NLOBES], MAX_NDF_LOBES);
     for (int k = 0; k < nsg; ++k) {
         float4 L0, L1;
-        ndf_lobe(lobes, m, k, &L0, &L1);
+        ndf_lobe(lobes, m, k, 0.0f, &L0, &L1);
         float lc = kappa >= 1e20f ? L0.w : L0.w * kappa / (L0.w + kappa);
         d += L1.x * (lc / L0.w) * exp(lc * (dot(normalize(L0.xyz), hl) - 1.0f));
     }

@@ -96,27 +96,23 @@
     }
 #else
     if (env_on) {
-        /* a textured glTF material's pixel record (gltf_pixel_record) re-set per lobe; any
-         * other GGX or measured material's record copied there, its lobes' vMF set per lobe */
+        /* a textured glTF material's pixel record (gltf_pixel_record), re-set per lobe; any
+         * other GGX or measured material's lobes convolve their NDF lobes with their vMF */
         __global float *rw_ = pxmat + gid * MAT_STRIDE;
         int conv_ = model == NM_MERL || ((model == NM_GGX || model == NM_GLTF) && !reset_);
-        if (conv_) {
-            for (int k = 0; k < MAT_STRIDE; ++k) rw_[k] = m[k];
-            m = rw_;
-        }
         for (int j = 0; j < nlob; ++j) {
             /* GGX's bare lobes (level 0's taps, the plain MIP's) and vmf's filtered ones (D
              * amplitude −κ); the single-lobe methods' widened GGX lobes keep nm_spec_env's SG
              * of their α′ below */
             int bare = (model == NM_GGX || model == NM_GLTF) && ax[j].w == 1.0f && lp[j].w == s;
             int convj = conv_ && (model == NM_MERL || ax[j].w < 0.0f || bare);
-            if (conv_) rw_[MAT_NMKAPPA] = ax[j].w < 0.0f ? -ax[j].w : 0.0f;
+            float kc_ = conv_ && ax[j].w < 0.0f ? -ax[j].w : 0.0f;
             if (reset_ || convj) {
                 /* GGX and measured materials: the `sg` method's specular about the lobe's
                  * axis — the material's NDF lobes, each warped to three sub-lobes,
                  * energy-scaled — which holds GGX's tail where one SG of the peak-matched
                  * roughness loses it at grazing views. A filtered lobe convolves those NDF
-                 * lobes with its vMF (ndf_lobe, MAT_NMKAPPA) and is scaled by its normals'
+                 * lobes with its vMF (ndf_lobe's κ) and is scaled by its normals'
                  * mean albedo at the view over the axis' (nm_lobe_albedo_ratio: the normals
                  * that see the view from below their horizon). A filtered lobe of a textured
                  * glTF material: the record set to the lobe's F0 and to the GGX whose peak is
@@ -140,7 +136,7 @@
                                            NM_EXACT_POINTS, 1, pyr, pyr_off, pyr_res, pyr_lam,
                                            pyr_n, pyr_log_ratio, env_mean, pyr_raw, raw_n,
                                            pyr_pts, NM_EXACT_POINTS ? 0 : n_pts, env_scale,
-                                           lights, 0, es);
+                                           lights, 0, es, kc_);
                 if (sv_ && model == NM_GLTF) {
                     rw_[MAT_F0] = ks.x; rw_[MAT_F0 + 1] = ks.y; rw_[MAT_F0 + 2] = ks.z;
                     if (reset_) gltf_record_alpha(mf_, rw_, s, s);
@@ -152,7 +148,6 @@
                                          pyr_lam, pyr_n, pyr_log_ratio, env_mean.xyz, pyr_pts,
                                          NM_EXACT_POINTS ? 0 : n_pts, pyr_raw, raw_n, env_scale);
         }
-        if (conv_) rw_[MAT_NMKAPPA] = 0.0f;   /* nm_spec convolves its own */
         /* the point set (a sun) as directional lights: every lobe's exact BRDF at each point,
          * shadowed at the point's own direction (nm_points) */
         if (NM_EXACT_POINTS)

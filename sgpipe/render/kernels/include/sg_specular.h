@@ -120,7 +120,8 @@ inline float3 sg_energy(__global const float *m, __global const float *tables, f
  * exactly) and the local lights (eq 43; sharp lights as w(l)·E with E from e_sharp for the
  * first SHARP_CACHE, skipped when `ndf_has`: the caller adds them exactly). op: the view in
  * the normal-mapped frame, q / qi that rotation; vis: the SSDF state (a Vis without SSDF
- * keeps only the tangent plane's horizon). */
+ * keeps only the tangent plane's horizon); nm_kappa > 0: the NDF lobes convolved with that
+ * vMF (a filtered normal-map lobe, ndf_lobe; 0: none). */
 inline float3 sg_lobes_specular(__global const float *m, __global const float4 *lobes,
                                 __global const float *tables, float3 ks, float3 op,
                                 float4 q, float4 qi, float3 T, float3 B, float3 N, float3 x,
@@ -131,7 +132,7 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
                                 __global const float4 *pyr_raw, int raw_n,
                                 __global const float4 *pyr_pts, int n_pts, float env_scale,
                                 __global const float4 *lights, int n_lights,
-                                const float3 *e_sharp) {
+                                const float3 *e_sharp, float nm_kappa) {
     float3 rs = (float3)(0.0f), renv = (float3)(0.0f);
 #ifdef W09_CSTAR_SPEC
     SG cosq = sg_clamped_cosine((float3)(0.0f, 0.0f, 1.0f));   /* C*(z+) of the rotated frame */
@@ -157,7 +158,7 @@ inline float3 sg_lobes_specular(__global const float *m, __global const float4 *
         int nsub = SPEC_SUBLOBES;
         if (j < nl) {
             float4 L0, L1;
-            ndf_lobe(lobes, m, j, &L0, &L1);
+            ndf_lobe(lobes, m, j, nm_kappa, &L0, &L1);
 #ifdef SG_NO_ENERGY
             spec_warp(sg_make(normalize(L0.xyz), L0.w, (float3)(L1.x)), op, sub, 0);
 #else
