@@ -75,9 +75,7 @@ inline float gltf_filtered_params(__global const float *m, __global const float4
             for (int i = 0; i < nx; ++i) {
                 float3 k1, f1;
                 lr += gltf_point_params(texels, texinfo[bt], texinfo[mt],
-                                        st + (((float)i + 0.5f) / (float)nx - 0.5f) * dx
-                                           + (((float)j + 0.5f) / (float)ny - 0.5f) * dy,
-                                        &k1, &f1);
+                                        tex_tap(st, dx, dy, i, j, nx, ny), &k1, &f1);
                 kd += k1;
                 f0 += f1;
             }

@@ -16,17 +16,16 @@ inline float nm_merl_kappa(int filter, int has_map, float rl) {
 
 /* A measured material's D* at the unit half vector hl of a lobe's frame (z its axis): the
  * record's NDF SG lobes (the `sg` method's representation of it), each convolved with
- * vMF(κ = −amp; amp ≥ 0: none) by λ′ = λκ/(λ + κ), μ′ = μλ′/λ (Han07 eq 14 / 21 for a sum
- * of SGs: a vMF convolved with an SG is the SG of the same mass and that λ′). */
+ * vMF(κ = −amp; amp ≥ 0: none) by ndf_lobe: λ′ = λκ/(λ + κ), μ′ = μλ′/λ (Han07 eq 14 / 21
+ * for a sum of SGs: a vMF convolved with an SG is the SG of the same mass and that λ′). */
 inline float nm_merl_d(__global const float *m, __global const float4 *lobes, float3 hl,
                        float amp) {
-    float kappa = amp < 0.0f ? -amp : 1e30f, d = 0.0f;
+    float kc = amp < 0.0f && -amp < 1e20f ? -amp : 0.0f, d = 0.0f;   /* 1e30: none */
     int nsg = min((int)m[MAT_NLOBES], MAX_NDF_LOBES);
     for (int k = 0; k < nsg; ++k) {
         float4 L0, L1;
-        ndf_lobe(lobes, m, k, 0.0f, &L0, &L1);
-        float lc = kappa >= 1e20f ? L0.w : L0.w * kappa / (L0.w + kappa);
-        d += L1.x * (lc / L0.w) * exp(lc * (dot(normalize(L0.xyz), hl) - 1.0f));
+        ndf_lobe(lobes, m, k, kc, &L0, &L1);
+        d += L1.x * exp(L0.w * (dot(normalize(L0.xyz), hl) - 1.0f));
     }
     return d;
 }

@@ -90,6 +90,12 @@ inline int tex_grid(int4 info, __global const float4 *texaff, int k, float2 uv, 
     return lv;
 }
 
+/* Tap (i, j) of tex_grid's n_x × n_y taps: the centre of its cell of the footprint. */
+inline float2 tex_tap(float2 st, float2 dx, float2 dy, int i, int j, int nx, int ny) {
+    return st + (((float)i + 0.5f) / (float)nx - 0.5f) * dx
+              + (((float)j + 0.5f) / (float)ny - 0.5f) * dy;
+}
+
 /* tex_grid's taps averaged: the texture over the footprint. */
 inline float4 tex_filtered(__global const float4 *texels, int4 info,
                            __global const float4 *texaff, int k, float2 uv, float4 duv) {
@@ -97,13 +103,9 @@ inline float4 tex_filtered(__global const float4 *texels, int4 info,
     int nx, ny;
     int lv = tex_grid(info, texaff, k, uv, duv, &st, &dx, &dy, &nx, &ny);
     float4 c = (float4)(0.0f);
-    for (int j = 0; j < ny; ++j) {
-        float b = ((float)j + 0.5f) / (float)ny - 0.5f;
-        for (int i = 0; i < nx; ++i) {
-            float a = ((float)i + 0.5f) / (float)nx - 0.5f;
-            c += tex_level(texels, info, lv, st + a * dx + b * dy);
-        }
-    }
+    for (int j = 0; j < ny; ++j)
+        for (int i = 0; i < nx; ++i)
+            c += tex_level(texels, info, lv, tex_tap(st, dx, dy, i, j, nx, ny));
     return c / (float)(nx * ny);
 }
 
